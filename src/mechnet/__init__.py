@@ -1,0 +1,15 @@
+"""mechnet: acausal mechanical modelling on CasADi."""
+from .compile import CompiledModel, CompileOptions
+from .core import (Across, Component, Connector, Eq, Input, Model, Output, Param, Port, State, Through, Var,
+                   der, nonnegative, positive, time, tunable)
+from .core.errors import (ConnectError, FrozenModelError, HigherIndexError, InitializationError,
+                          IntegrationError, MechnetError, NameConflictError, ParameterError, SceneError,
+                          StructureError, UnbalancedModelError, UnknownNameError)
+from .simulate import IntegrationWarning, Result
+
+__version__ = "0.1.0"
+
+
+def compile(model: Model, options: CompileOptions | None = None) -> CompiledModel:  # noqa: A001
+    """Compile a model (same as `model.compile(options)`)."""
+    return model.compile(options)

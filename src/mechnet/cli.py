@@ -1,0 +1,190 @@
+"""The `mechnet` command: run the example scenes, or simulate one scene file.
+
+    mechnet --version
+    mechnet demo [--out DIR] [--only NAME]
+    mechnet simulate FILE [--t-end T] [--rtol R] [--atol A] [--method M] [--n-out N] [--plot PNG]
+
+Errors a user can cause (MechnetError) print one `error: ...` line and exit
+with status 2, without a traceback: the message already names the culprit.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Optional, Sequence
+
+from mechnet.core.errors import MechnetError, SceneError
+
+METHODS = ("auto", "idas", "cvodes-bdf", "cvodes-adams")
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of the console script; returns the process exit status."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.version:
+        print(f"mechnet {_version()}")
+        return 0
+    if args.command is None:
+        parser.print_help()
+        return 2
+    try:
+        return args.run(args)
+    except MechnetError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="mechnet",
+        description="Acausal mechanical modelling on CasADi: build, compile and simulate scenes.",
+    )
+    parser.add_argument("--version", action="store_true", help="print the version and exit")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    demo = sub.add_parser("demo", help="build and simulate every example scene, write PNG plots")
+    demo.add_argument("--out", type=Path, default=Path("mechnet-demo"),
+                      help="folder for the plots (default: ./mechnet-demo)")
+    demo.add_argument("--only", metavar="NAME", help="run only the scene examples/NAME.py")
+    demo.add_argument("--examples", type=Path, default=None, metavar="DIR",
+                      help="folder of scene files (default: the repository's examples/)")
+    demo.set_defaults(run=_demo)
+
+    sim = sub.add_parser("simulate", help="compile and simulate one scene file")
+    sim.add_argument("file", type=Path, metavar="FILE", help="scene file defining build()")
+    sim.add_argument("--t-end", type=float, default=None, help="end time in s (default: the scene's t_end)")
+    sim.add_argument("--rtol", type=float, default=None, help="relative tolerance (default 1e-6)")
+    sim.add_argument("--atol", type=float, default=None, help="absolute tolerance (default 1e-8)")
+    sim.add_argument("--method", choices=METHODS, default=None, help="integrator (default: auto)")
+    sim.add_argument("--n-out", type=int, default=None, help="number of output points")
+    sim.add_argument("--plot", type=Path, default=None, metavar="PNG", help="save a plot to this file")
+    sim.set_defaults(run=_simulate)
+    return parser
+
+
+def _version() -> str:
+    try:
+        from importlib.metadata import PackageNotFoundError, version
+        return version("mechnet")
+    except PackageNotFoundError:
+        import mechnet
+        return getattr(mechnet, "__version__", "unknown")
+
+
+def _use_agg() -> None:
+    """Plots are only written to files, so never open a window (CI has no display)."""
+    import matplotlib
+    matplotlib.use("Agg")
+
+
+def _examples_dir(override: Optional[Path]) -> Path:
+    folder = override if override is not None else Path(__file__).resolve().parents[2] / "examples"
+    if not folder.is_dir():
+        raise SceneError(
+            f"examples folder {folder} not found; `mechnet demo` runs from a source checkout "
+            f"(pip install -e .) or pass --examples DIR"
+        )
+    return folder
+
+
+def _demo(args: argparse.Namespace) -> int:
+    """Run every scene; one failing scene is reported and does not stop the others."""
+    _use_agg()
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from mechnet.scene import load_scene
+
+    folder = _examples_dir(args.examples)
+    files = sorted(p for p in folder.glob("*.py") if not p.name.startswith("_"))
+    if args.only is not None:
+        files = [p for p in files if p.stem == args.only]
+        if not files:
+            names = ", ".join(sorted(p.stem for p in folder.glob("*.py"))) or "none"
+            raise SceneError(f"no scene named {args.only!r} in {folder} (available: {names})")
+    if not files:
+        raise SceneError(f"no scene files (*.py) in {folder}")
+
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    failed: list[str] = []
+    t_total = time.perf_counter()
+    for path in files:
+        print(f"\n=== {path.stem} " + "=" * max(3, 60 - len(path.stem)))
+        try:
+            scene = load_scene(path)
+            if scene.description:
+                print(scene.description)
+            t0 = time.perf_counter()
+            model = scene.model()
+            cm = model.compile()
+            t_compile = time.perf_counter() - t0
+            print(cm.summary())
+            t0 = time.perf_counter()
+            res = cm.simulate(scene.t_end)
+            t_sim = time.perf_counter() - t0
+            print(f"build + compile {t_compile:.3f} s, simulate to t = {scene.t_end:g} s {t_sim:.3f} s")
+            if scene.reference is not None:
+                reference = scene.reference(np.asarray(res.t))
+                for name, expected in reference.items():
+                    error = np.max(np.abs(np.asarray(res[name]) - np.asarray(expected)))
+                    print(f"  max |{name} - reference| = {error:.3e}")
+            fig = res.plot(list(scene.plot) or None)
+            png = out / f"{scene.name}.png"
+            fig.savefig(png)
+            plt.close(fig)
+            print(f"wrote {png}")
+        except Exception as exc:  # noqa: BLE001 - report and go on with the next scene
+            failed.append(path.stem)
+            kind = "" if isinstance(exc, MechnetError) else f"{type(exc).__name__}: "
+            print(f"error: {path.stem}: {kind}{exc}", file=sys.stderr)
+    print(f"\n{len(files) - len(failed)} of {len(files)} scenes ran in "
+          f"{time.perf_counter() - t_total:.2f} s; plots in {out}")
+    if failed:
+        print(f"failed: {', '.join(failed)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _simulate(args: argparse.Namespace) -> int:
+    from mechnet.scene import load_scene
+
+    if args.plot is not None:
+        _use_agg()
+    scene = load_scene(args.file)
+    t0 = time.perf_counter()
+    cm = scene.model().compile()
+    t_compile = time.perf_counter() - t0
+    print(cm.summary())
+
+    # Only options the user gave are passed on, so the simulator's own defaults apply.
+    options = {key: value for key, value in
+               (("rtol", args.rtol), ("atol", args.atol), ("method", args.method), ("n_out", args.n_out))
+               if value is not None}
+    t_end = scene.t_end if args.t_end is None else args.t_end
+    t0 = time.perf_counter()
+    res = cm.simulate(t_end, **options)
+    t_sim = time.perf_counter() - t0
+    print(f"build + compile {t_compile:.3f} s, simulate to t = {t_end:g} s {t_sim:.3f} s")
+
+    names = list(cm.state_names)
+    width = max((len(n) for n in names), default=0)
+    print(f"final state at t = {t_end:g} s:")
+    for name in names:
+        print(f"  {name:<{width}}  {float(res[name][-1]): .9g}")
+
+    if args.plot is not None:
+        import matplotlib.pyplot as plt
+        fig = res.plot(list(scene.plot) or None)
+        args.plot.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(args.plot)
+        plt.close(fig)
+        print(f"wrote {args.plot}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

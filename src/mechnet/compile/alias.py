@@ -1,0 +1,195 @@
+"""Simplify: alias elimination, constants, structurally zero equations.
+
+Connections generate many equations `a = b` and `a + b = 0`; a fixed flange
+sets `phi = 0`. Eliminating them shrinks the system without losing a name: the
+`AliasMap` keeps every eliminated variable as ±(surviving symbol) or a constant.
+
+When two variables that both have derivatives become aliases (two inertias
+connected directly), their derivatives are aliases too — that is the
+differentiated alias equation, so the rigid pair gets one set of states.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import casadi as ca
+
+from ..core.errors import StructureError
+from .artifacts import AliasMap, FlatSystem
+
+_KIND_RANK = {"state": 4, "algebraic": 3, "output": 2, "across": 1, "through": 1, "derivative": 0}
+_PRIORITY_RANK = {"prefer": 3, "default": 2, "avoid": 1, "never": 0}
+
+
+@dataclass(frozen=True)
+class SimplifyOptions:
+    eliminate_aliases: bool = True
+
+
+class _Classes:
+    """Union-find with signs: variable i = sign[i] * parent[i]; a root may carry a constant value."""
+
+    def __init__(self, flat: FlatSystem):
+        n = len(flat.variables)
+        self.flat = flat
+        self.parent = list(range(n))
+        self.sign = [1.0] * n
+        self.const: dict[int, float] = {}
+        self.der_of = dict(flat.der_of)           # root -> (index, sign); maintained on roots
+
+    def find(self, i):
+        s = 1.0
+        path = []
+        while self.parent[i] != i:
+            path.append(i)
+            s *= self.sign[i]
+            i = self.parent[i]
+        # path compression
+        acc = s
+        for j in path:
+            sj = self.sign[j]
+            self.parent[j] = i
+            self.sign[j] = acc
+            acc *= sj
+        return i, s
+
+    def _rank(self, i):
+        v = self.flat.variables[i]
+        return (v.kind == "input", i in self.der_of, _KIND_RANK.get(v.kind, 0),
+                _PRIORITY_RANK.get(v.priority, 2), -i)
+
+    def union(self, a, b, s) -> bool:
+        """Record a = s * b. Returns False when it cannot be used as an alias."""
+        ra, sa = self.find(a)
+        rb, sb = self.find(b)
+        if ra == rb:
+            return False
+        rel = s * sb * sa                     # ra = rel * rb
+        keep, drop = (ra, rb) if self._rank(ra) > self._rank(rb) else (rb, ra)
+        kinds = {self.flat.variables[keep].kind, self.flat.variables[drop].kind}
+        if self.flat.variables[drop].kind == "input":
+            return False                      # two inputs equal: a constraint, not an alias
+        if "input" in kinds and (drop in self.der_of):
+            return False                      # a state equal to an input: prescribed motion (index reduction)
+        if keep in self.const and drop in self.const:
+            return False
+        self.parent[drop] = keep
+        self.sign[drop] = rel
+        if drop in self.const:
+            self.set_const(keep, rel * self.const.pop(drop))
+        if drop in self.der_of:
+            dj, ds = self.der_of.pop(drop)
+            if keep in self.der_of:
+                kj, ks = self.der_of[keep]
+                # der(drop) = rel * der(keep):  ds*var(dj) = rel*ks*var(kj)
+                self._merge_derivatives(dj, ds, kj, rel * ks)
+            else:
+                self.der_of[keep] = (dj, ds * rel)
+        return True
+
+    def _merge_derivatives(self, dj, ds, kj, ks):
+        if dj is None or kj is None:
+            return
+        self.union(dj, kj, ks / ds)
+
+    def set_const(self, i, value) -> bool:
+        r, s = self.find(i)
+        if self.flat.variables[r].kind == "input":
+            return False
+        if r in self.const:
+            return False
+        self.const[r] = s * value
+        if r in self.der_of:                   # a constant's derivative is zero
+            dj, ds = self.der_of.pop(r)
+            if dj is not None:
+                self.set_const(dj, 0.0)
+        return True
+
+    def expression(self, i, symbols):
+        r, s = self.find(i)
+        if r in self.const:
+            return ca.SX(self.const[r])
+        return s * symbols[r] if s != 1.0 else symbols[r]
+
+
+def simplify(flat: FlatSystem, options: SimplifyOptions = SimplifyOptions()) -> tuple[FlatSystem, AliasMap]:
+    symbols = [v.symbol for v in flat.variables]
+    index = {s.element_hash(): i for i, s in enumerate(symbols)}
+    classes = _Classes(flat)
+    residuals = [eq.residual for eq in flat.equations]
+    active = [True] * len(residuals)
+    removed = 0
+
+    changed = options.eliminate_aliases
+    while changed:
+        changed = False
+        for e, r in enumerate(residuals):
+            if not active[e]:
+                continue
+            vs = [index[s.element_hash()] for s in ca.symvar(r) if s.element_hash() in index]
+            n_all = len(ca.symvar(r))
+            if n_all == 0:
+                if not ca.is_zero(ca.simplify(r)) and float(ca.evalf(r)) != 0.0:
+                    raise StructureError(f"{flat.equations[e].describe()} cannot hold: it reduces to "
+                                         f"{float(ca.evalf(r)):g} = 0 after eliminating constants")
+                active[e] = False
+                removed += 1
+                continue
+            if len(vs) != n_all or len(vs) > 2:
+                continue                       # time, tunable parameters or many variables
+            vec = ca.vertcat(*[symbols[i] for i in vs])
+            jac = ca.jacobian(r, vec)
+            if not jac.is_constant():
+                continue
+            coeffs = [float(c) for c in ca.evalf(jac).full().ravel()]
+            offset = ca.substitute(r, vec, ca.DM.zeros(len(vs)))
+            if not offset.is_constant():
+                continue
+            offset = float(ca.evalf(offset))
+            if len(vs) == 1 and coeffs[0] != 0.0:
+                used = classes.set_const(vs[0], -offset / coeffs[0])
+            elif len(vs) == 2 and offset == 0.0 and abs(coeffs[0]) == abs(coeffs[1]) and coeffs[0] != 0:
+                used = classes.union(vs[0], vs[1], -coeffs[1] / coeffs[0])
+            else:
+                used = False
+            if used:
+                active[e] = False
+                changed = True
+        if changed:
+            elim = [i for i in range(len(symbols)) if classes.find(i)[0] != i or i in classes.const]
+            if elim:
+                olds = ca.vertcat(*[symbols[i] for i in elim])
+                news = ca.vertcat(*[classes.expression(i, symbols) for i in elim])
+                keep = [e for e in range(len(residuals)) if active[e]]
+                subs = ca.substitute(ca.vertcat(*[residuals[e] for e in keep]), olds, news)
+                for k, e in enumerate(keep):
+                    residuals[e] = subs[k]
+
+    # what survives
+    survivors = [i for i in range(len(symbols)) if classes.find(i)[0] == i and i not in classes.const]
+    new_index = {old: k for k, old in enumerate(survivors)}
+    variables = tuple(flat.variables[i] for i in survivors)
+    der_of = {}
+    for i, (j, s) in classes.der_of.items():
+        if i not in new_index:
+            continue
+        rj, sj = classes.find(j)
+        if rj in classes.const:
+            der_of[new_index[i]] = (None, s * sj * classes.const[rj])
+        else:
+            der_of[new_index[i]] = (new_index[rj], s * sj)
+    expressions = {}
+    n_alias = n_const = 0
+    for i, v in enumerate(flat.variables):
+        r, _ = classes.find(i)
+        if r == i and i not in classes.const:
+            continue
+        expressions[v.name] = classes.expression(i, symbols)
+        if r in classes.const:
+            n_const += 1
+        else:
+            n_alias += 1
+    equations = tuple(replace(eq, residual=residuals[e]) for e, eq in enumerate(flat.equations) if active[e])
+    reduced = FlatSystem(flat.name, variables, equations, flat.parameters, der_of, flat.time,
+                         flat.effects, stage="simplify")
+    return reduced, AliasMap(expressions, n_alias, n_const, removed + (len(flat.equations) - len(equations) - removed))

@@ -1,0 +1,180 @@
+"""The frozen objects passed between compile stages. Each has a `summary()`.
+
+Structural data is kept as integers (variable and equation indices); the CasADi
+symbols sit beside them in the same order.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+import casadi as ca
+
+
+@dataclass(frozen=True)
+class FlatVariable:
+    """One scalar variable of the flat system."""
+
+    name: str
+    symbol: ca.SX
+    kind: str                 # state | algebraic | output | across | through | input | derivative
+    unit: str = "1"
+    start: Optional[float] = None     # fixed start value (enforced)
+    guess: Optional[float] = None     # Newton guess (not enforced)
+    default_start: float = 0.0        # declared start, used when nothing else is known
+    nominal: float = 1.0
+    priority: str = "default"
+    origin: str = ""                  # component path ("" for derivative variables)
+    component_type: str = ""
+    input_default: float = 0.0
+
+
+@dataclass(frozen=True)
+class FlatEquation:
+    """One scalar residual 0 = residual, remembering where it came from."""
+
+    residual: ca.SX
+    origin: str               # component path, or "connection"
+    label: str                # "j1 (Inertia), equation 4" / "connection {a.flange, b.flange}: phi equal"
+    doc: str = ""
+
+    def describe(self) -> str:
+        return f"{self.label}" + (f" — {self.doc}" if self.doc else "")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    name: str
+    symbol: ca.SX
+    value: float
+    unit: str = "1"
+
+
+@dataclass(frozen=True)
+class FlatSystem:
+    """Namespaced scalar variables and residual equations in CasADi SX.
+
+    `der_of[i] = (j, sign)` says der(variable i) = sign · variable j.
+    """
+
+    name: str
+    variables: tuple
+    equations: tuple
+    parameters: tuple
+    der_of: dict
+    time: ca.SX
+    effects: tuple = ()
+    stage: str = "flatten"
+
+    def index_of(self) -> dict[str, int]:
+        return {v.name: i for i, v in enumerate(self.variables)}
+
+    def states(self) -> list[int]:
+        return sorted(self.der_of)
+
+    def unknowns(self) -> list[int]:
+        """Variables solved for at each instant: all but inputs and states."""
+        return [i for i, v in enumerate(self.variables) if v.kind != "input" and i not in self.der_of]
+
+    def summary(self) -> str:
+        return (f"{self.stage}: {len(self.variables)} variables ({len(self.der_of)} with derivatives), "
+                f"{len(self.equations)} equations, {len(self.parameters)} tunable parameters")
+
+
+@dataclass(frozen=True)
+class AliasMap:
+    """Eliminated variables as expressions of the remaining ones: every dotted name stays addressable."""
+
+    expressions: dict           # name -> SX expression in the remaining symbols
+    n_alias: int = 0
+    n_constant: int = 0
+    n_removed_equations: int = 0
+
+    def summary(self) -> str:
+        return (f"simplify: {self.n_alias} aliases and {self.n_constant} constants eliminated, "
+                f"{self.n_removed_equations} equations removed")
+
+
+@dataclass(frozen=True)
+class StructureReport:
+    """Incidence, matching and BLT blocks of the simplified system (integers only).
+
+    `unknowns` are variable indices; `incidence[e]` lists the positions (in
+    `unknowns`) that equation e contains; `matching[e]` is that position;
+    `blocks` are lists of equation indices in solving order.
+    """
+
+    unknowns: tuple
+    incidence: tuple
+    matching: tuple
+    blocks: tuple
+    n_equations: int
+
+    def summary(self) -> str:
+        sizes = [len(b) for b in self.blocks]
+        big = max(sizes) if sizes else 0
+        return (f"structure: {self.n_equations} equations, {len(self.unknowns)} unknowns, "
+                f"{len(self.blocks)} BLT blocks (largest {big})")
+
+
+@dataclass(frozen=True)
+class Selection:
+    """One choice of states and algebraics (DESIGN.md, `selections`)."""
+
+    x_names: tuple
+    z_names: tuple
+    ode: ca.Function
+    alg: ca.Function
+    observed: ca.Function
+
+
+@dataclass(frozen=True)
+class SemiExplicitDAE:
+    """The compiled model everything downstream reads: ẋ = ode(...), 0 = alg(...).
+
+    All functions take (t, x, z, u, p, d). `observed` returns every dotted name
+    of the scene, in `observed_names` order.
+    """
+
+    name: str
+    t: ca.SX
+    x: ca.SX
+    z: ca.SX
+    u: ca.SX
+    p: ca.SX
+    d: ca.SX
+    x_names: tuple
+    z_names: tuple
+    u_names: tuple
+    p_names: tuple
+    d_names: tuple
+    ode: ca.Function
+    alg: ca.Function
+    observed: ca.Function
+    observed_names: tuple
+    zero: ca.Function
+    transition: tuple            # one Function per zero crossing: (t,x,z,u,p,d) -> (x+, d+)
+    invariants: ca.Function
+    invariant_names: tuple
+    selections: tuple
+    x_nominal: tuple
+    z_nominal: tuple
+    units: dict
+    starts: dict                 # dotted name -> fixed start value
+    guesses: dict                # dotted name -> guess (declared start for unfixed ones)
+    u_default: tuple
+    p_value: tuple
+    d_value: tuple
+    info: dict = field(default_factory=dict)
+
+    @property
+    def is_ode(self) -> bool:
+        return self.z.numel() == 0
+
+    def n_instructions(self) -> int:
+        return self.ode.n_instructions() + self.alg.n_instructions()
+
+    def summary(self) -> str:
+        kind = "explicit ODE" if self.is_ode else "index-1 DAE"
+        return (f"emit: {kind} with {self.x.numel()} states, {self.z.numel()} algebraics, "
+                f"{self.n_instructions()} instructions in ode + alg")

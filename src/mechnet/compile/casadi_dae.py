@@ -1,0 +1,146 @@
+"""Emit: from the structured flat system to CasADi functions ẋ = ode(...), 0 = alg(...).
+
+Blocks are solved in BLT order (see tearing.py); each solved variable becomes an
+expression of the base symbols (states x, tearing variables z, inputs u,
+tunable parameters p, time t), substituted only where the next blocks use it so
+the work stays linear in the model size. Every name of the scene — aliases,
+constants, eliminated and torn variables — gets an `observed` expression.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+
+from .artifacts import AliasMap, FlatSystem, Selection, SemiExplicitDAE, StructureReport
+from .tearing import solve_block
+
+ARGS = ("t", "x", "z", "u", "p", "d")
+
+
+@dataclass(frozen=True)
+class EmitOptions:
+    tearing: bool = True
+
+
+def _fn(name, args, outputs, out_name):
+    return ca.Function(name, list(args), [outputs], list(ARGS), [out_name])
+
+
+def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: StructureReport,
+         options: EmitOptions = EmitOptions()) -> SemiExplicitDAE:
+    variables = flat.variables
+    symbols = [v.symbol for v in variables]
+    param_hashes = {p.symbol.element_hash() for p in flat.parameters}
+    value: dict[int, ca.SX] = {}          # variable index -> expression in base symbols
+    z_index: list[int] = []
+    alg: list[ca.SX] = []
+
+    position = {s.element_hash(): i for i, s in enumerate(symbols)}
+    depends: dict[int, set] = {}           # variable -> the unknowns its block reads
+    for block in structure.blocks:
+        block_vars = [structure.unknowns[structure.matching[e]] for e in block]
+        block_reads = set()
+        residuals = []
+        for e in block:
+            r = flat.equations[e].residual
+            used = [position[s.element_hash()] for s in ca.symvar(r)
+                    if position.get(s.element_hash()) in value]
+            block_reads.update(used)
+            if used:
+                r = ca.substitute(r, ca.vertcat(*[symbols[i] for i in used]),
+                                  ca.vertcat(*[value[i] for i in used]))
+            residuals.append(r)
+        if options.tearing:
+            sol = solve_block(residuals, block_vars, symbols, param_hashes)
+        else:
+            from .tearing import BlockSolution
+            sol = BlockSolution([], list(block_vars), residuals)
+        for i, expr in sol.solved:
+            value[i] = expr
+        for i in block_vars:
+            depends[i] = block_reads
+        z_index.extend(sol.tears)
+        alg.extend(sol.residuals)
+    # torn variables are base symbols: substitute them nowhere, but observed reads them
+    x_index = sorted(flat.der_of)
+    u_index = [i for i, v in enumerate(variables) if v.kind == "input"]
+    t = flat.time
+    x = ca.vertcat(*[symbols[i] for i in x_index]) if x_index else ca.SX(0, 1)
+    z = ca.vertcat(*[symbols[i] for i in z_index]) if z_index else ca.SX(0, 1)
+    u = ca.vertcat(*[symbols[i] for i in u_index]) if u_index else ca.SX(0, 1)
+    p = ca.vertcat(*[q.symbol for q in flat.parameters]) if flat.parameters else ca.SX(0, 1)
+    d = ca.SX(0, 1)
+
+    def current(i):
+        return value.get(i, symbols[i])
+
+    ode_list = []
+    for i in x_index:
+        j, s = flat.der_of[i]
+        ode_list.append(ca.SX(s) if j is None else s * current(j))
+    ode_expr = ca.vertcat(*ode_list) if ode_list else ca.SX(0, 1)
+    alg_expr = ca.vertcat(*alg) if alg else ca.SX(0, 1)
+    args = (t, x, z, u, p, d)
+
+    # observed: every name of the original flat system
+    names, exprs = [], []
+    survivor = {v.name: i for i, v in enumerate(variables)}
+    solved_idx = list(value)
+    sub_from = ca.vertcat(*[symbols[i] for i in solved_idx]) if solved_idx else None
+    sub_to = ca.vertcat(*[value[i] for i in solved_idx]) if solved_idx else None
+    for v in original.variables:
+        names.append(v.name)
+        if v.name in survivor:
+            exprs.append(current(survivor[v.name]))
+        else:
+            exprs.append(aliases.expressions[v.name])
+    obs = ca.vertcat(*exprs)
+    if sub_from is not None:
+        obs = ca.substitute(obs, sub_from, sub_to)
+    # a derivative that survived as a state stands for itself; its own derivative is in ode
+    for q in flat.parameters:
+        names.append(q.name)
+    obs = ca.vertcat(obs, p)
+
+    ode = _fn("ode", args, ode_expr, "xdot")
+    algf = _fn("alg", args, alg_expr, "res")
+    observed = _fn("observed", args, obs, "y")
+    zero = _fn("zero", args, ca.SX(0, 1), "g")
+    invariants = _fn("invariants", args, ca.SX(0, 1), "c")
+    x_names = tuple(variables[i].name for i in x_index)
+    z_names = tuple(variables[i].name for i in z_index)
+    units = {v.name: v.unit for v in original.variables}
+    units.update({q.name: q.unit for q in flat.parameters})
+    starts = {v.name: v.start for v in original.variables if v.start is not None}
+    guesses = {v.name: (v.guess if v.guess is not None else v.default_start) for v in original.variables}
+    nominal = {v.name: v.nominal for v in original.variables}
+    info = {"solved": len(value), "torn": len(z_index),
+            "observed_only": _count_observed_only(value, depends, flat, z_index),
+            "nominal": nominal}
+    return SemiExplicitDAE(
+        name=flat.name, t=t, x=x, z=z, u=u, p=p, d=d,
+        x_names=x_names, z_names=z_names,
+        u_names=tuple(variables[i].name for i in u_index),
+        p_names=tuple(q.name for q in flat.parameters), d_names=(),
+        ode=ode, alg=algf, observed=observed, observed_names=tuple(names),
+        zero=zero, transition=(), invariants=invariants, invariant_names=(),
+        selections=(Selection(x_names, z_names, ode, algf, observed),),
+        x_nominal=tuple(variables[i].nominal for i in x_index),
+        z_nominal=tuple(variables[i].nominal for i in z_index),
+        units=units, starts=starts, guesses=guesses,
+        u_default=tuple(variables[i].input_default for i in u_index),
+        p_value=tuple(q.value for q in flat.parameters), d_value=(), info=info)
+
+
+def _count_observed_only(value, depends, flat, z_index) -> int:
+    """Solved variables the integrated equations never need: computed only when observed (pruned)."""
+    stack = [j for j, _ in flat.der_of.values() if j is not None] + list(z_index)
+    needed = set()
+    while stack:
+        i = stack.pop()
+        if i in needed:
+            continue
+        needed.add(i)
+        stack.extend(depends.get(i, ()))
+    return sum(1 for i in value if i not in needed)

@@ -1,0 +1,108 @@
+"""Flatten: a Model becomes one list of scalar variables and residual equations.
+
+Variables get dotted names (`subsystem.component.connector.var[i]`); the
+connection sets are the connected components of the connector graph: across
+variables are equal, through variables sum to zero (so an unconnected flow is
+zero). Derivative symbols used by `der()` become variables of their own.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+
+from ..core.declarations import Across, Input, Output, State, Through
+from ..core.equation import derivative_parent, time
+from ..core.errors import StructureError
+from ..core.model import Model
+from .artifacts import FlatEquation, FlatSystem, FlatVariable, Parameter
+from .connections import connection_equations
+
+
+@dataclass(frozen=True)
+class FlattenOptions:
+    """Nothing to choose yet; kept so every stage has its own options object."""
+
+
+def _kind(decl) -> str:
+    if isinstance(decl, State):
+        return "state"
+    if isinstance(decl, Input):
+        return "input"
+    if isinstance(decl, Output):
+        return "output"
+    if isinstance(decl, Across):
+        return "across"
+    if isinstance(decl, Through):
+        return "through"
+    return "algebraic"
+
+
+def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSystem:
+    variables: list[FlatVariable] = []
+    by_hash: dict[int, int] = {}
+    parameters: list[Parameter] = []
+    equations: list[FlatEquation] = []
+    effects: dict[str, int] = {}
+
+    def add_variable(var: FlatVariable):
+        by_hash[var.symbol.element_hash()] = len(variables)
+        variables.append(var)
+
+    components = model.components()
+    for comp in components:
+        ctype = type(comp).__name__
+        effects[ctype] = effects.get(ctype, 0) + 1
+        for info in comp.variables():
+            names = info.declaration.scalar_names(f"{comp.path}.{info.local_name.rsplit('.', 1)[0]}"
+                                                  if "." in info.local_name else comp.path)
+            for i, name in enumerate(names):
+                add_variable(FlatVariable(
+                    name=name, symbol=info.symbol[i], kind=_kind(info.declaration),
+                    unit=info.declaration.unit,
+                    start=None if info.start is None else float(info.start[i]),
+                    guess=None if info.guess is None else float(info.guess[i]),
+                    default_start=float(getattr(info.declaration, "start", 0.0) or 0.0),
+                    nominal=float(info.nominal[i]), priority=info.declaration.priority,
+                    origin=comp.path, component_type=ctype,
+                    input_default=comp.input_defaults.get(info.local_name, 0.0)))
+        for key, (sym, value) in comp.tunable.items():
+            decl = type(comp)._declarations[key]
+            parameters.append(Parameter(f"{comp.path}.{key}", sym, value, decl.unit))
+
+    for comp in components:
+        label = f"{comp.path} ({type(comp).__name__})"
+        for number, element, residual, doc in comp.residuals():
+            suffix = f"[{element}]" if element else ""
+            equations.append(FlatEquation(residual, comp.path, f"{label}, equation {number}{suffix}", doc))
+
+    equations.extend(connection_equations(model.connection_graph()))
+
+    # derivative symbols become variables; anything else unknown is a user error
+    param_hashes = {p.symbol.element_hash() for p in parameters}
+    der_of: dict[int, tuple[int, float]] = {}
+    skip = param_hashes | {time.element_hash()}
+
+    def ensure(symbol, eq) -> int:
+        h = symbol.element_hash()
+        if h in by_hash:
+            return by_hash[h]
+        parent = derivative_parent(symbol)
+        if parent is None:
+            raise StructureError(f"{eq.label} uses the symbol {symbol.name()!r}, which no component of "
+                                 f"model {model.name!r} declares (was a component left out of model.add()?)")
+        base = variables[ensure(parent, eq)]
+        add_variable(FlatVariable(name=f"der({base.name})", symbol=symbol, kind="derivative",
+                                  unit=f"({base.unit})/s", nominal=base.nominal, origin=base.origin,
+                                  component_type=base.component_type))
+        der_of[by_hash[parent.element_hash()]] = (by_hash[h], 1.0)
+        return by_hash[h]
+
+    for eq in equations:
+        for s in ca.symvar(eq.residual):
+            if s.element_hash() not in skip:
+                ensure(s, eq)
+
+    return FlatSystem(model.name, tuple(variables), tuple(equations), tuple(parameters), der_of, time,
+                      tuple(sorted(effects.items())))
+

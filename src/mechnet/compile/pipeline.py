@@ -1,0 +1,43 @@
+"""`compile()`: a thin façade over the stages, keeping every artifact.
+
+Each stage reads only its own options object; nothing is relayed as **kwargs.
+"""
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass, field
+
+from .alias import SimplifyOptions, simplify
+from .casadi_dae import EmitOptions, emit
+from .flatten import FlattenOptions, flatten
+from .structure import StructureOptions, analyze_structure
+
+
+@dataclass(frozen=True)
+class CompileOptions:
+    flatten: FlattenOptions = field(default_factory=FlattenOptions)
+    simplify: SimplifyOptions = field(default_factory=SimplifyOptions)
+    structure: StructureOptions = field(default_factory=StructureOptions)
+    emit: EmitOptions = field(default_factory=EmitOptions)
+
+
+def compile_model(model, options: CompileOptions | None = None):
+    from .compiled import CompiledModel
+
+    options = options or CompileOptions()
+    timings = {}
+    t0 = _time.perf_counter()
+    flat = flatten(model, options.flatten)
+    timings["flatten"] = _time.perf_counter() - t0
+    t0 = _time.perf_counter()
+    simplified, aliases = simplify(flat, options.simplify)
+    timings["simplify"] = _time.perf_counter() - t0
+    t0 = _time.perf_counter()
+    structure = analyze_structure(simplified, options.structure)
+    timings["analyze"] = _time.perf_counter() - t0
+    t0 = _time.perf_counter()
+    dae = emit(flat, simplified, aliases, structure, options.emit)
+    timings["emit"] = _time.perf_counter() - t0
+    model.freeze()
+    stages = {"flat": flat, "simplified": simplified, "aliases": aliases, "structure": structure, "dae": dae}
+    return CompiledModel(model.name, stages, timings, options)

@@ -1,0 +1,91 @@
+"""Solving one BLT block symbolically, tearing what cannot be solved.
+
+Within a block: an equation with one unknown left, linear in it with a
+coefficient that cannot vanish (a number or a function of parameters only),
+is solved explicitly; when none is left, the unknown that occurs in most
+remaining equations becomes a tearing variable (Cellier's heuristic). What is
+left are residual equations in the tearing variables: the only algebraic
+part the integrator sees.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+
+
+@dataclass
+class BlockSolution:
+    solved: list            # (variable index, expression) in solving order
+    tears: list             # variable indices kept as algebraic unknowns
+    residuals: list         # expressions that must vanish
+
+
+def solvable_coefficient(coef: ca.SX, known_symbols: set) -> bool:
+    """A coefficient that cannot vanish: a non-zero number, or built from parameters only."""
+    if coef.is_constant():
+        return float(ca.evalf(coef)) != 0.0
+    return all(s.element_hash() in known_symbols for s in ca.symvar(coef))
+
+
+def solve_linear_for(residual: ca.SX, var: ca.SX, parameter_hashes: set):
+    """Return var's explicit solution of residual = 0, or None if not safely linear."""
+    coef = ca.jacobian(residual, var)
+    if ca.depends_on(coef, var) or not solvable_coefficient(coef, parameter_hashes):
+        return None
+    rest = ca.substitute(residual, var, ca.SX(0.0))
+    return -rest / coef
+
+
+def solve_block(residuals: list, variables: list, symbols: list, parameter_hashes: set) -> BlockSolution:
+    """Solve residuals (already in known terms) for variables (indices; symbols[i] their SX)."""
+    n = len(variables)
+    vec = ca.vertcat(*[symbols[v] for v in variables])
+    if n > 1:
+        jac = ca.jacobian(ca.vertcat(*residuals), vec)
+        if not ca.depends_on(jac, vec) and all(s.element_hash() in parameter_hashes for s in ca.symvar(jac)):
+            rhs = -ca.substitute(ca.vertcat(*residuals), vec, ca.DM.zeros(n))
+            sol = ca.solve(jac, rhs)
+            return BlockSolution([(v, sol[k]) for k, v in enumerate(variables)], [], [])
+    unknown = {symbols[v].element_hash(): v for v in variables}
+    pending = list(range(n))
+    current = list(residuals)
+    solved, tears, out_res = [], [], []
+    remaining = set(variables)
+
+    def unknowns_of(k):
+        return [unknown[s.element_hash()] for s in ca.symvar(current[k])
+                if s.element_hash() in unknown and unknown[s.element_hash()] in remaining]
+
+    while pending:
+        progress = False
+        for k in list(pending):
+            unk = unknowns_of(k)
+            if not unk:
+                out_res.append(current[k])
+                pending.remove(k)
+                progress = True
+            elif len(unk) == 1:
+                sol = solve_linear_for(current[k], symbols[unk[0]], parameter_hashes)
+                if sol is None:
+                    continue
+                v = unk[0]
+                solved.append((v, sol))
+                remaining.discard(v)
+                pending.remove(k)
+                for j in pending:
+                    if ca.depends_on(current[j], symbols[v]):
+                        current[j] = ca.substitute(current[j], symbols[v], sol)
+                progress = True
+        if not progress:
+            counts = {v: 0 for v in remaining}
+            for k in pending:
+                for v in unknowns_of(k):
+                    counts[v] += 1
+            tear = max(sorted(counts), key=lambda v: counts[v])
+            tears.append(tear)
+            remaining.discard(tear)
+    if len(tears) != len(out_res):
+        # tearing did not come out square (should not happen for a matched block): keep it whole
+        return BlockSolution([], list(variables), list(residuals))
+    return BlockSolution(solved, tears, out_res)

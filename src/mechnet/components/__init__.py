@@ -1,0 +1,1 @@
+"""Component libraries, one subpackage per physical domain."""

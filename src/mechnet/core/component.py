@@ -1,0 +1,223 @@
+"""Components and connectors: declarations in the class body, equations in one method.
+
+A component instance owns CasADi symbols for all its variables (and those of
+its connectors), created at construction and registered for `der()`.
+Parameters are validated at construction; a parameter is a plain float unless
+given as `tunable(...)`, so zero terms fold away symbolically.
+"""
+from __future__ import annotations
+
+import keyword
+import math
+from dataclasses import dataclass
+from typing import Optional
+
+import casadi as ca
+import numpy as np
+
+from .declarations import Across, Declaration, Input, Param, Port, Through, Tunable, Variable
+from .equation import Eq, register
+from .errors import ParameterError
+
+
+@dataclass
+class VariableInfo:
+    """What flatten needs to know of one declared (possibly vector) variable."""
+
+    local_name: str          # "phi" or "flange_a.phi"
+    declaration: Variable
+    symbol: ca.SX            # column of scalar symbols
+    start: Optional[np.ndarray]   # fixed start values, or None
+    guess: Optional[np.ndarray]   # Newton guesses, or None
+    nominal: np.ndarray
+
+
+def _collect(cls) -> dict[str, Declaration]:
+    decls: dict[str, Declaration] = {}
+    for klass in reversed(cls.__mro__):
+        for key, value in vars(klass).items():
+            if isinstance(value, Declaration):
+                decls[key] = value
+    return decls
+
+
+def _check_name(name, what) -> str:
+    if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
+        raise ParameterError(f"{what}: name {name!r} must be a Python identifier (it becomes part of dotted names)")
+    return name
+
+
+def _make_symbols(label: str, decl: Variable) -> ca.SX:
+    if decl.shape == 1:
+        syms = [ca.SX.sym(label)]
+    else:
+        syms = [ca.SX.sym(f"{label}[{i}]") for i in range(decl.shape)]
+    for s in syms:
+        register(s)
+    return ca.vertcat(*syms)
+
+
+class Connector:
+    """Base of connector types. Subclasses declare `Across` and `Through` variables.
+
+    An instance belongs to one component port; `owner` and `port` say which.
+    """
+
+    _declarations: dict[str, Declaration] = {}
+
+    def __init_subclass__(cls, **kw):
+        super().__init_subclass__(**kw)
+        cls._declarations = _collect(cls)
+
+    def __init__(self, owner: "Component", port: str):
+        self.owner = owner
+        self.port = port
+        self._values: dict[str, ca.SX] = {}
+        for key, decl in self._declarations.items():
+            self._values[key] = _make_symbols(f"{owner.name}.{port}.{key}", decl)
+
+    def __getattribute__(self, key):
+        if not key.startswith("_"):
+            values = object.__getattribute__(self, "_values")
+            if key in values:
+                return values[key]
+        return object.__getattribute__(self, key)
+
+    @property
+    def label(self) -> str:
+        return f"{self.owner.path}.{self.port}"
+
+    def across(self):
+        return [(k, self._values[k]) for k, d in self._declarations.items() if isinstance(d, Across)]
+
+    def through(self):
+        return [(k, self._values[k]) for k, d in self._declarations.items() if isinstance(d, Through)]
+
+    def __repr__(self):
+        return f"<{type(self).__name__} {self.label}>"
+
+
+class Component:
+    """Base of every component. Subclass, declare, and write `equations()`.
+
+    Keyword arguments: one per parameter; `<var>_start=` fixes a start value,
+    `<var>_guess=` gives a Newton guess, `<var>_nominal=` a scale.
+    """
+
+    _declarations: dict[str, Declaration] = {}
+    abstract = True
+
+    def __init_subclass__(cls, abstract: bool = False, **kw):
+        super().__init_subclass__(**kw)
+        cls._declarations = _collect(cls)
+        cls.abstract = abstract
+
+    def __init__(self, name: str, **kwargs):
+        if type(self).abstract:
+            raise TypeError(f"{type(self).__name__} is an abstract base; use one of its subclasses")
+        self.name = _check_name(name, type(self).__name__)
+        self.path = name                 # dotted path, extended when a subsystem is added to a model
+        self._values: dict[str, object] = {}
+        self._variables: list[VariableInfo] = []
+        self._ports: dict[str, Connector] = {}
+        self.tunable: dict[str, tuple[ca.SX, float]] = {}
+        self.input_defaults: dict[str, float] = {}
+        label = f"{name} ({type(self).__name__})"
+        for key, decl in self._declarations.items():
+            if isinstance(decl, Param):
+                value = kwargs.pop(key, decl.default)
+                if value is None:
+                    raise ParameterError(f"{label}: parameter {key} is required ({decl.doc}, unit {decl.unit})")
+                number = decl.validate(label, value)
+                if isinstance(value, Tunable):
+                    sym = ca.SX.sym(f"{name}.{key}")
+                    self.tunable[key] = (sym, number)
+                    self._values[key] = sym
+                else:
+                    self._values[key] = number
+            elif isinstance(decl, Port):
+                connector = decl.connector_type(self, key)
+                self._ports[key] = connector
+                self._values[key] = connector
+        for key, decl in self._declarations.items():
+            if isinstance(decl, Variable):
+                sym = _make_symbols(f"{name}.{key}", decl)
+                self._values[key] = sym
+                if isinstance(decl, Input):
+                    self.input_defaults[key] = float(kwargs.pop(key, decl.default))
+                self._variables.append(VariableInfo(
+                    key, decl, sym,
+                    self._vector(label, key, "start", kwargs.pop(f"{key}_start", None), decl.shape),
+                    self._vector(label, key, "guess", kwargs.pop(f"{key}_guess", None), decl.shape),
+                    self._vector(label, key, "nominal", kwargs.pop(f"{key}_nominal", decl.nominal), decl.shape)))
+        for port, connector in self._ports.items():
+            for key, decl in connector._declarations.items():
+                self._variables.append(VariableInfo(
+                    f"{port}.{key}", decl, connector._values[key], None, None,
+                    np.full(decl.shape, float(decl.nominal))))
+        if kwargs:
+            raise ParameterError(f"{label}: unknown argument(s) {', '.join(sorted(kwargs))}; "
+                                 f"parameters are {', '.join(self.parameter_names()) or 'none'}")
+        self.check()
+
+    @staticmethod
+    def _vector(label, key, what, value, shape):
+        if value is None:
+            return None
+        arr = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
+        if arr.size == 1 and shape > 1:
+            arr = np.full(shape, arr[0])
+        if arr.size != shape or not np.all(np.isfinite(arr)):
+            raise ParameterError(f"{label}: {key}_{what} = {value!r} must be {shape} finite number(s)")
+        return arr
+
+    def __getattribute__(self, key):
+        if not key.startswith("_"):
+            values = object.__getattribute__(self, "_values")
+            if key in values:
+                return values[key]
+        return object.__getattribute__(self, key)
+
+    def __setattr__(self, key, value):
+        if not key.startswith("_") and key in type(self)._declarations and "_values" in self.__dict__:
+            raise ParameterError(f"{self.name} ({type(self).__name__}): {key} is set at construction; "
+                                 f"build a new component to change it")
+        object.__setattr__(self, key, value)
+
+    # ---- hooks for subclasses ---------------------------------------------------------------
+
+    def check(self) -> None:
+        """Cross-parameter checks; raise ParameterError naming the component."""
+
+    def equations(self) -> list:
+        """The component's equations (`Eq` or residual expressions), in a fixed order."""
+        return []
+
+    # ---- introspection ----------------------------------------------------------------------
+
+    def parameter_names(self) -> list[str]:
+        return [k for k, d in self._declarations.items() if isinstance(d, Param)]
+
+    def ports(self) -> dict[str, Connector]:
+        return dict(self._ports)
+
+    def variables(self) -> list[VariableInfo]:
+        return list(self._variables)
+
+    def residuals(self) -> list[tuple[int, int, ca.SX, str]]:
+        """Scalar residuals as (equation number, element, expression, doc)."""
+        out = []
+        for k, eq in enumerate(self.equations()):
+            doc = eq.doc if isinstance(eq, Eq) else ""
+            res = eq.residual() if isinstance(eq, Eq) else ca.SX(eq)
+            res = ca.reshape(res, -1, 1)
+            for i in range(res.numel()):
+                out.append((k + 1, i, res[i], doc))
+        return out
+
+    def __repr__(self):
+        return f"<{type(self).__name__} {self.path}>"
+
+
+def finite(x) -> bool:
+    return math.isfinite(float(x))

@@ -1,0 +1,160 @@
+"""Declarations a component or connector makes in its class body.
+
+Each declaration carries the unit, a short description, the default start
+value, the nominal value (used to scale tolerances) and, for states, the
+priority that index reduction uses when it picks states. Declaration order is
+kept (Python class bodies preserve it) so flat names come out in a stable order.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Optional
+
+from .errors import ParameterError
+
+
+# ---- parameter checks: each returns an error text or None ---------------------------------
+
+def positive(value) -> Optional[str]:
+    return None if value > 0 else "must be > 0"
+
+
+def nonnegative(value) -> Optional[str]:
+    return None if value >= 0 else "must be >= 0"
+
+
+def nonzero(value) -> Optional[str]:
+    return None if value != 0 else "must be non-zero"
+
+
+def any_finite(value) -> Optional[str]:
+    return None
+
+
+@dataclass(frozen=True)
+class Tunable:
+    """Marks a parameter value that stays a symbol (for sweeps, OCP, export) instead of being folded."""
+
+    value: float
+
+
+def tunable(value: float) -> Tunable:
+    """`Spring(c=mn.tunable(100.0))` keeps `c` as a CasADi parameter instead of folding it."""
+    return Tunable(float(value))
+
+
+class Declaration:
+    """Common part of every declaration: the attribute name is filled in by __set_name__."""
+
+    kind = "declaration"
+
+    def __init__(self, *, unit: str = "1", doc: str = "", shape: int = 1):
+        self.unit = unit
+        self.doc = doc
+        self.shape = int(shape)
+        self.name: str = ""
+
+    def __set_name__(self, owner, name):
+        self.name = name
+
+    def scalar_names(self, prefix: str) -> list[str]:
+        base = f"{prefix}.{self.name}" if prefix else self.name
+        if self.shape == 1:
+            return [base]
+        return [f"{base}[{i}]" for i in range(self.shape)]
+
+
+class Param(Declaration):
+    """A parameter: folded into the equations as a number unless given as `tunable(...)`."""
+
+    kind = "parameter"
+
+    def __init__(self, default=None, *, unit="1", doc="", check: Callable = any_finite, shape: int = 1):
+        super().__init__(unit=unit, doc=doc, shape=shape)
+        self.default = default
+        self.check = check
+
+    def validate(self, owner_label: str, value) -> float:
+        raw = value.value if isinstance(value, Tunable) else value
+        try:
+            number = float(raw)
+        except (TypeError, ValueError):
+            raise ParameterError(f"{owner_label}: parameter {self.name} = {raw!r} is not a number "
+                                 f"({self.doc}, unit {self.unit})") from None
+        if not math.isfinite(number):
+            raise ParameterError(f"{owner_label}: parameter {self.name} = {number} is not finite "
+                                 f"({self.doc}, unit {self.unit})")
+        problem = self.check(number)
+        if problem:
+            raise ParameterError(f"{owner_label}: parameter {self.name} = {number} {problem} "
+                                 f"({self.doc}, unit {self.unit})")
+        return number
+
+
+class Variable(Declaration):
+    """A time-varying unknown. `start`: default start value; `nominal`: magnitude for scaling."""
+
+    kind = "variable"
+
+    def __init__(self, *, unit="1", doc="", start: float = 0.0, nominal: float = 1.0,
+                 priority: str = "default", shape: int = 1):
+        super().__init__(unit=unit, doc=doc, shape=shape)
+        if priority not in ("prefer", "default", "avoid", "never"):
+            raise ValueError(f"priority {priority!r}: expected prefer, default, avoid or never")
+        self.start = start
+        self.nominal = nominal
+        self.priority = priority
+
+
+class State(Variable):
+    """A variable expected to be a state (its derivative appears); `phi_start=` fixes it."""
+
+    kind = "state"
+
+    def __init__(self, *, priority: str = "prefer", **kw):
+        super().__init__(priority=priority, **kw)
+
+
+class Var(Variable):
+    """An algebraic variable (or one whose state-ness the compiler decides)."""
+
+    kind = "algebraic"
+
+
+class Output(Variable):
+    """A sensor output: observed, pruned from the integrated equations when nothing needs it."""
+
+    kind = "output"
+
+
+class Input(Variable):
+    """An external input `u`; its value comes from simulate(inputs=...) or its default."""
+
+    kind = "input"
+
+    def __init__(self, *, default: float = 0.0, **kw):
+        super().__init__(**kw)
+        self.default = default
+
+
+class Across(Variable):
+    """Potential variable of a connector: equal at a connection."""
+
+    kind = "across"
+
+
+class Through(Variable):
+    """Flow variable of a connector: sums to zero at a connection; positive into the component."""
+
+    kind = "through"
+
+
+class Port(Declaration):
+    """A connector instance inside a component: `flange_a = Port(Flange)`."""
+
+    kind = "port"
+
+    def __init__(self, connector_type, *, doc: str = ""):
+        super().__init__(doc=doc)
+        self.connector_type = connector_type

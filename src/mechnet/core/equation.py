@@ -1,0 +1,90 @@
+"""Equations in residual form, the time symbol and the `der()` operator.
+
+Every variable symbol a component creates is registered here with its owner, so
+that `der(x)` can hand back one derivative symbol per variable (created on first
+use) and flatten can tell a declared variable from a stray CasADi symbol.
+`der` of an expression is the total time derivative by the chain rule.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Union
+
+import casadi as ca
+
+Expr = Union[ca.SX, float, int]
+
+time = ca.SX.sym("time")
+"""Simulation time inside equations (Modelica's `time`; never `t`)."""
+
+# element hash -> (symbol, derivative symbol or None); holding the symbol keeps the hash unique.
+_REGISTRY: dict[int, list] = {}
+# element hash of a derivative symbol -> element hash of the symbol it is the derivative of
+_DERIVATIVE_OF: dict[int, int] = {}
+
+
+def register(symbol: ca.SX) -> None:
+    """Record a scalar variable symbol so `der` and flatten know it."""
+    _REGISTRY[symbol.element_hash()] = [symbol, None]
+
+
+def is_registered(symbol: ca.SX) -> bool:
+    return symbol.element_hash() in _REGISTRY
+
+
+def derivative_parent(symbol: ca.SX):
+    """The symbol whose derivative `symbol` is, or None."""
+    parent = _DERIVATIVE_OF.get(symbol.element_hash())
+    return None if parent is None else _REGISTRY[parent][0]
+
+
+def _derivative_symbol(symbol: ca.SX) -> ca.SX:
+    key = symbol.element_hash()
+    entry = _REGISTRY.get(key)
+    if entry is None:
+        return None
+    if entry[1] is None:
+        d = ca.SX.sym(f"der({symbol.name()})")
+        register(d)
+        _DERIVATIVE_OF[d.element_hash()] = key
+        entry[1] = d
+    return entry[1]
+
+
+def der(expr: Expr) -> ca.SX:
+    """Total time derivative. For a variable: its derivative symbol; for an expression: chain rule.
+
+    Parameters and numbers have derivative zero, `time` has derivative one.
+    """
+    expr = ca.SX(expr)
+    if expr.is_constant():
+        return ca.SX.zeros(expr.shape)
+    symbols = ca.symvar(expr)
+    if expr.is_scalar() and expr.is_symbolic():
+        if ca.is_equal(expr, time):
+            return ca.SX(1.0)
+        d = _derivative_symbol(expr)
+        return d if d is not None else ca.SX(0.0)
+    seeds = []
+    for s in symbols:
+        if ca.is_equal(s, time):
+            seeds.append(ca.SX(1.0))
+        else:
+            d = _derivative_symbol(s)
+            seeds.append(d if d is not None else ca.SX(0.0))
+    if expr.is_column() or expr.is_scalar():
+        return ca.jtimes(expr, ca.vertcat(*symbols), ca.vertcat(*seeds))
+    flat = ca.reshape(expr, -1, 1)
+    return ca.reshape(ca.jtimes(flat, ca.vertcat(*symbols), ca.vertcat(*seeds)), expr.shape)
+
+
+@dataclass(frozen=True)
+class Eq:
+    """`lhs = rhs`, kept as the residual `lhs - rhs`; `doc` says what the equation states."""
+
+    lhs: Expr
+    rhs: Expr = 0.0
+    doc: str = ""
+
+    def residual(self) -> ca.SX:
+        return ca.SX(self.lhs) - ca.SX(self.rhs)

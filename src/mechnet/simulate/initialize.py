@@ -1,0 +1,152 @@
+"""Consistent initialisation: fixed start values enforced, guesses only guessed.
+
+The initial system is the algebraic equations plus one equation per fixed
+start value (whatever variable it names: a state, an alias, a connector
+variable). It must be square: a fixed value that competes with another for the
+same state is reported by name; states that no fixed value reaches take their
+guess (their declared start unless the user gave one) and are listed as free.
+The system is solved with a damped Newton method built from CasADi functions.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import networkx as nx
+import numpy as np
+from networkx.algorithms import bipartite
+
+from ..core.errors import InitializationError
+
+_TOL = 1e-10
+
+
+@dataclass
+class InitialPoint:
+    x: np.ndarray
+    z: np.ndarray
+    fixed: list          # names whose values were enforced
+    free_states: list    # states that took their guess
+    residual: float
+
+
+def _newton(residual: ca.Function, w0: np.ndarray, max_iter: int = 50):
+    """Damped Newton on residual(w) = 0 with a backtracking line search."""
+    w = ca.SX.sym("w", w0.size)
+    jac = ca.Function("init_jacobian", [w], [ca.jacobian(residual(w), w)])
+    w_val = w0.copy()
+    r = np.asarray(residual(w_val)).ravel()
+    for _ in range(max_iter):
+        norm = np.max(np.abs(r)) if r.size else 0.0
+        if norm < _TOL * (1.0 + np.max(np.abs(w_val), initial=0.0)):
+            break
+        J = np.asarray(jac(w_val))
+        try:
+            step = np.linalg.solve(J, -r)
+        except np.linalg.LinAlgError:
+            step = np.linalg.lstsq(J, -r, rcond=None)[0]
+        lam = 1.0
+        while lam > 1e-6:
+            trial = w_val + lam * step
+            rt = np.asarray(residual(trial)).ravel()
+            if np.all(np.isfinite(rt)) and np.max(np.abs(rt)) < (1 - 1e-4 * lam) * norm:
+                break
+            lam *= 0.5
+        w_val, r = trial, rt
+    return w_val, r
+
+
+def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess: dict) -> InitialPoint:
+    nx_, nz = dae.x.numel(), dae.z.numel()
+    y = dae.observed(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d)
+    row = {n: k for k, n in enumerate(dae.observed_names)}
+    w = ca.vertcat(dae.x, dae.z)
+    subs_from = ca.vertcat(dae.t, dae.u, dae.p)
+    subs_to = ca.vertcat(t0, u, p)
+
+    def numeric(expr):
+        return ca.substitute(expr, subs_from, subs_to)
+
+    # 1. fixed values: drop those that are constants of the model (checking them), dedupe equal ones
+    conditions = []            # (name, expr, value)
+    implied: dict[int, tuple[str, float]] = {}   # state/algebraic -> (name, value) for x_j = const conditions
+    for name, value in start.items():
+        expr = numeric(y[row[name]])
+        if not ca.depends_on(expr, w):
+            const = float(ca.evalf(expr))
+            if abs(const - value) > 1e-9 * max(1.0, abs(value)):
+                raise InitializationError(
+                    f"start value {name} = {value:g} cannot hold: the model fixes {name} = {const:g} "
+                    f"(it is rigidly connected to a fixed or constant element); remove this start value")
+            continue
+        single = [j for j in range(w.numel()) if ca.depends_on(expr, w[j])]
+        if len(single) == 1:
+            j = single[0]
+            coef = ca.jacobian(expr, w[j])
+            if coef.is_constant() and float(ca.evalf(coef)) != 0.0:
+                offset = float(ca.evalf(ca.substitute(expr, w[j], 0.0)))
+                val = (value - offset) / float(ca.evalf(coef))
+                if j in implied:
+                    other, other_val = implied[j]
+                    if abs(other_val - val) > 1e-9 * max(1.0, abs(val)):
+                        raise InitializationError(
+                            f"start values {other} and {name} = {value:g} conflict: both fix the same "
+                            f"quantity (they are aliases through a connection), to {other_val:g} and {val:g}")
+                    continue
+                implied[j] = (name, val)
+        conditions.append((name, expr, float(value)))
+    alg = numeric(dae.alg(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d))
+    # 2. structure: conditions and algebraic equations against states and algebraics
+    rows_expr = [c[1] for c in conditions] + [alg[k] for k in range(nz)]
+    g = nx.Graph()
+    left = [("r", k) for k in range(len(rows_expr))]
+    g.add_nodes_from(left)
+    g.add_nodes_from(("w", j) for j in range(nx_ + nz))
+    for k, expr in enumerate(rows_expr):
+        for j in range(nx_ + nz):
+            if ca.depends_on(expr, w[j]):
+                g.add_edge(("r", k), ("w", j))
+    match = bipartite.hopcroft_karp_matching(g, top_nodes=left)
+    unmatched = [k for k in range(len(conditions)) if ("r", k) not in match]
+    if unmatched:
+        _too_many(conditions, unmatched, match, dae, w)
+    matched_w = {match[("r", k)][1] for k in range(len(rows_expr)) if ("r", k) in match}
+    free = [j for j in range(nx_) if j not in matched_w]
+    # 3. free states take their guess
+    names_w = list(dae.x_names) + list(dae.z_names)
+    w0 = np.array([float(guess.get(n, dae.guesses.get(n, 0.0))) for n in names_w])
+    for j in free:
+        rows_expr.append(w[j])
+        conditions.append((names_w[j], w[j], w0[j]))
+    res_expr = ca.vertcat(*[c[1] - c[2] for c in conditions], alg) if rows_expr else ca.SX(0, 1)
+    if w.numel() == 0:
+        return InitialPoint(np.zeros(0), np.zeros(0), [c[0] for c in conditions], [], 0.0)
+    residual = ca.Function("init_residual", [w], [res_expr])
+    sol, r = _newton(residual, w0)
+    worst = int(np.argmax(np.abs(r))) if r.size else 0
+    if r.size and not (np.all(np.isfinite(r)) and abs(r[worst]) < 1e-8 * (1.0 + np.max(np.abs(sol)))):
+        labels = [f"start value {c[0]} = {c[2]:g}" for c in conditions] + \
+                 [f"algebraic equation {k}" for k in range(nz)]
+        raise InitializationError(f"consistent initialisation failed: the largest residual is "
+                                  f"{r[worst]:.3g} in {labels[worst]}; check the start values and guesses")
+    fixed = [c[0] for c in conditions[: len(conditions) - len(free)]]
+    return InitialPoint(sol[:nx_], sol[nx_:], fixed, [names_w[j] for j in free],
+                        float(np.max(np.abs(r))) if r.size else 0.0)
+
+
+def _too_many(conditions, unmatched, match, dae, w):
+    names_w = list(dae.x_names) + list(dae.z_names)
+    lines = []
+    for k in unmatched:
+        name, expr, value = conditions[k]
+        rivals = []
+        for j in range(w.numel()):
+            if ca.depends_on(expr, w[j]):
+                for (side, other), (_, jj) in match.items():
+                    if side == "r" and jj == j and other < len(conditions):
+                        rivals.append(f"{conditions[other][0]} = {conditions[other][2]:g}")
+                rivals.append(f"state {names_w[j]}")
+        lines.append(f"    {name} = {value:g} competes with {', '.join(dict.fromkeys(rivals))}")
+    raise InitializationError("too many fixed start values: the model has fewer states than fixed values "
+                              "for them; remove one of each group (or make it a guess with *_guess=):\n"
+                              + "\n".join(lines))

@@ -1,0 +1,81 @@
+"""Result: time grid, every dotted name, statistics, and the failure if there was one."""
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+from ..core.errors import UnknownNameError
+
+
+def unknown_name(name: str, known, what: str = "variable") -> UnknownNameError:
+    close = difflib.get_close_matches(name, list(known), n=3)
+    hint = f"; did you mean {', '.join(close)}?" if close else ""
+    return UnknownNameError(f"{what} {name!r} does not exist in this model{hint}")
+
+
+@dataclass
+class Result:
+    """Simulation output. `res[name]` is a numpy array on the grid `res.t` for every dotted name."""
+
+    t: np.ndarray
+    values: np.ndarray                  # (len(t), len(names))
+    names: tuple
+    units: dict
+    stats: dict
+    x: np.ndarray                       # states on the grid (unscaled)
+    z: np.ndarray
+    state_names: tuple
+    events: list = field(default_factory=list)
+    failure: Optional[Exception] = None
+    initial: dict = field(default_factory=dict)     # how the start point was found
+
+    def __post_init__(self):
+        self._column = {n: k for k, n in enumerate(self.names)}
+
+    @property
+    def success(self) -> bool:
+        return self.failure is None
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name not in self._column:
+            raise unknown_name(name, self.names)
+        return self.values[:, self._column[name]]
+
+    def __contains__(self, name) -> bool:
+        return name in self._column
+
+    @property
+    def final_state(self) -> dict:
+        """State values at the last time point, usable as `simulate(start=...)`."""
+        return {n: float(self.x[-1, k]) for k, n in enumerate(self.state_names)}
+
+    def plot(self, names=None, ax=None):
+        """Plot named variables against time (default: the states); returns the matplotlib Figure."""
+        import matplotlib.pyplot as plt
+
+        names = list(names) if names else list(self.state_names[:6])
+        for n in names:
+            if n not in self._column:
+                raise unknown_name(n, self.names)
+        if ax is None:
+            fig, ax = plt.subplots(figsize=(8, 4.5))
+        else:
+            fig = ax.figure
+        for n in names:
+            ax.plot(self.t, self[n], label=f"{n} [{self.units.get(n, '1')}]")
+        ax.set_xlabel("time [s]")
+        units = {self.units.get(n, "1") for n in names}
+        ax.set_ylabel(units.pop() if len(units) == 1 else "value")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best", fontsize="small")
+        if self.failure is not None:
+            ax.set_title(f"integration failed at t = {self.t[-1]:.6g} s", color="red")
+        fig.tight_layout()
+        return fig
+
+    def __repr__(self):
+        status = "ok" if self.success else f"FAILED: {self.failure}"
+        return f"<Result {len(self.t)} points, t = {self.t[0]:g}..{self.t[-1]:g} s, {status}>"
