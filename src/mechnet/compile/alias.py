@@ -108,7 +108,7 @@ class _Classes:
     def expression(self, i, symbols):
         r, s = self.find(i)
         if r in self.const:
-            return ca.SX(self.const[r])
+            return ca.SX(s * self.const[r])
         return s * symbols[r] if s != 1.0 else symbols[r]
 
 
@@ -175,7 +175,7 @@ def simplify(flat: FlatSystem, options: SimplifyOptions = SimplifyOptions()) -> 
             continue
         rj, sj = classes.find(j)
         if rj in classes.const:
-            der_of[new_index[i]] = (None, s * sj * classes.const[rj])
+            der_of[new_index[i]] = (None, s * sj * classes.const[rj])  # der = constant
         else:
             der_of[new_index[i]] = (new_index[rj], s * sj)
     expressions = {}
