@@ -1,5 +1,9 @@
 """Solving one BLT block symbolically, tearing what cannot be solved.
 
+A linear block is eliminated the same way and then closed: the few tearing
+variables are solved from their (linear) residuals and substituted back, so
+a large sparse block never becomes a dense symbolic solve.
+
 Within a block: an equation with one unknown left, linear in it with a
 coefficient that cannot vanish (a number or a function of parameters only),
 is solved explicitly; when none is left, the unknown that occurs in most
@@ -41,12 +45,10 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
     """Solve residuals (already in known terms) for variables (indices; symbols[i] their SX)."""
     n = len(variables)
     vec = ca.vertcat(*[symbols[v] for v in variables])
+    linear = False
     if n > 1:
         jac = ca.jacobian(ca.vertcat(*residuals), vec)
-        if not ca.depends_on(jac, vec) and all(s.element_hash() in parameter_hashes for s in ca.symvar(jac)):
-            rhs = -ca.substitute(ca.vertcat(*residuals), vec, ca.DM.zeros(n))
-            sol = ca.solve(jac, rhs)
-            return BlockSolution([(v, sol[k]) for k, v in enumerate(variables)], [], [])
+        linear = not ca.depends_on(jac, vec) and all(s.element_hash() in parameter_hashes for s in ca.symvar(jac))
     unknown = {symbols[v].element_hash(): v for v in variables}
     pending = list(range(n))
     current = list(residuals)
@@ -88,4 +90,15 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
     if len(tears) != len(out_res):
         # tearing did not come out square (should not happen for a matched block): keep it whole
         return BlockSolution([], list(variables), list(residuals))
+    if linear and tears:
+        # block elimination: the torn residuals are linear in the tearing variables; solve that
+        # small system symbolically and substitute back into the sequentially solved variables
+        t_vec = ca.vertcat(*[symbols[v] for v in tears])
+        r_vec = ca.vertcat(*out_res)
+        a = ca.jacobian(r_vec, t_vec)
+        b = ca.substitute(r_vec, t_vec, ca.DM.zeros(len(tears)))
+        t_sol = ca.solve(a, -b)
+        back = ca.substitute(ca.vertcat(*[e for _, e in solved]), t_vec, t_sol) if solved else []
+        return BlockSolution([(v, back[k]) for k, (v, _) in enumerate(solved)]
+                             + [(v, t_sol[k]) for k, v in enumerate(tears)], [], [])
     return BlockSolution(solved, tears, out_res)
