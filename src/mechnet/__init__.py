@@ -3,7 +3,7 @@ from .compile import CompiledModel, CompileOptions
 from .core import (Across, Component, Connector, Eq, Input, Model, Output, Param, Port, State, Through, Var,
                    der, nonnegative, positive, time, tunable)
 from .core.errors import (ConnectError, FrozenModelError, HigherIndexError, InitializationError,
-                          IntegrationError, MechnetError, NameConflictError, ParameterError, SceneError,
+                          IntegrationError, InputError, MechnetError, NameConflictError, ParameterError, SceneError,
                           StructureError, UnbalancedModelError, UnknownNameError)
 from .simulate import IntegrationWarning, Result
 

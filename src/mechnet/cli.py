@@ -2,7 +2,7 @@
 
     mechnet --version
     mechnet demo [--out DIR] [--only NAME]
-    mechnet simulate FILE [--t-end T] [--rtol R] [--atol A] [--method M] [--n-out N] [--plot PNG]
+    mechnet simulate FILE [--t-end T] [--rtol R] [--atol A] [--method M] [--n-out N] [--plot PNG] [--csv CSV]
 
 Errors a user can cause (MechnetError) print one `error: ...` line and exit
 with status 2, without a traceback: the message already names the culprit.
@@ -61,6 +61,7 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--method", choices=METHODS, default=None, help="integrator (default: auto)")
     sim.add_argument("--n-out", type=int, default=None, help="number of output points")
     sim.add_argument("--plot", type=Path, default=None, metavar="PNG", help="save a plot to this file")
+    sim.add_argument("--csv", type=Path, default=None, metavar="CSV", help="write every variable to this CSV file")
     sim.set_defaults(run=_simulate)
     return parser
 
@@ -172,9 +173,17 @@ def _simulate(args: argparse.Namespace) -> int:
 
     names = list(cm.state_names)
     width = max((len(n) for n in names), default=0)
-    print(f"final state at t = {t_end:g} s:")
+    if not res.success:
+        print(f"warning: {res.failure}", file=sys.stderr)
+    print(f"final state at t = {res.final_time:g} s:")
     for name in names:
         print(f"  {name:<{width}}  {float(res[name][-1]): .9g}")
+    for event in res.events:
+        print(f"  event at t = {event.t:g} s ({event.kind}): {event.cause}")
+    if args.csv is not None:
+        args.csv.parent.mkdir(parents=True, exist_ok=True)
+        res.to_csv(args.csv)
+        print(f"wrote {args.csv}")
 
     if args.plot is not None:
         import matplotlib.pyplot as plt

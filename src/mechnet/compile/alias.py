@@ -191,5 +191,5 @@ def simplify(flat: FlatSystem, options: SimplifyOptions = SimplifyOptions()) -> 
             n_alias += 1
     equations = tuple(replace(eq, residual=residuals[e]) for e, eq in enumerate(flat.equations) if active[e])
     reduced = FlatSystem(flat.name, variables, equations, flat.parameters, der_of, flat.time,
-                         flat.effects, stage="simplify")
+                         flat.effects, stage="simplify", time_events=flat.time_events)
     return reduced, AliasMap(expressions, n_alias, n_const, removed + (len(flat.equations) - len(equations) - removed))

@@ -65,6 +65,7 @@ class FlatSystem:
     time: ca.SX
     effects: tuple = ()
     stage: str = "flatten"
+    time_events: tuple = ()       # (time, cause): where a signal jumps or kinks
 
     def index_of(self) -> dict[str, int]:
         return {v.name: i for i, v in enumerate(self.variables)}
@@ -165,6 +166,7 @@ class SemiExplicitDAE:
     u_default: tuple
     p_value: tuple
     d_value: tuple
+    time_events: tuple = ()      # (time, cause), sorted
     info: dict = field(default_factory=dict)
 
     @property

@@ -130,7 +130,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
         z_nominal=tuple(variables[i].nominal for i in z_index),
         units=units, starts=starts, guesses=guesses,
         u_default=tuple(variables[i].input_default for i in u_index),
-        p_value=tuple(q.value for q in flat.parameters), d_value=(), info=info)
+        p_value=tuple(q.value for q in flat.parameters), d_value=(), time_events=flat.time_events, info=info)
 
 
 def _count_observed_only(value, depends, flat, z_index) -> int:

@@ -44,6 +44,7 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
     parameters: list[Parameter] = []
     equations: list[FlatEquation] = []
     effects: dict[str, int] = {}
+    time_events: list[tuple[float, str]] = []
 
     def add_variable(var: FlatVariable):
         by_hash[var.symbol.element_hash()] = len(variables)
@@ -53,12 +54,14 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
     for comp in components:
         ctype = type(comp).__name__
         effects[ctype] = effects.get(ctype, 0) + 1
+        time_events.extend(comp.time_events())
         for info in comp.variables():
             names = info.declaration.scalar_names(f"{comp.path}.{info.local_name.rsplit('.', 1)[0]}"
                                                   if "." in info.local_name else comp.path)
             for i, name in enumerate(names):
                 add_variable(FlatVariable(
-                    name=name, symbol=info.symbol[i], kind=_kind(info.declaration),
+                    name=name, symbol=info.symbol[i],
+                    kind="algebraic" if info.driven else _kind(info.declaration),
                     unit=info.declaration.unit,
                     start=None if info.start is None else float(info.start[i]),
                     guess=None if info.guess is None else float(info.guess[i]),
@@ -104,5 +107,5 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
                 ensure(s, eq)
 
     return FlatSystem(model.name, tuple(variables), tuple(equations), tuple(parameters), der_of, time,
-                      tuple(sorted(effects.items())))
+                      tuple(sorted(effects.items())), time_events=tuple(sorted(time_events)))
 

@@ -7,6 +7,7 @@ given as `tunable(...)`, so zero terms fold away symbolically.
 """
 from __future__ import annotations
 
+import difflib
 import keyword
 import math
 from dataclasses import dataclass
@@ -16,7 +17,7 @@ import casadi as ca
 import numpy as np
 
 from .declarations import Across, Declaration, Input, Param, Port, Through, Tunable, Variable
-from .equation import Eq, register
+from .equation import Eq, register, time
 from .errors import ParameterError
 
 
@@ -30,6 +31,7 @@ class VariableInfo:
     start: Optional[np.ndarray]   # fixed start values, or None
     guess: Optional[np.ndarray]   # Newton guesses, or None
     nominal: np.ndarray
+    driven: bool = False          # an input driven by a signal: an ordinary variable with an equation
 
 
 def _collect(cls) -> dict[str, Declaration]:
@@ -122,6 +124,7 @@ class Component:
         self._ports: dict[str, Connector] = {}
         self.tunable: dict[str, tuple[ca.SX, float]] = {}
         self.input_defaults: dict[str, float] = {}
+        self.signals: dict[str, object] = {}
         label = f"{name} ({type(self).__name__})"
         for key, decl in self._declarations.items():
             if isinstance(decl, Param):
@@ -144,20 +147,24 @@ class Component:
                 sym = _make_symbols(f"{name}.{key}", decl)
                 self._values[key] = sym
                 if isinstance(decl, Input):
-                    self.input_defaults[key] = float(kwargs.pop(key, decl.default))
+                    value = kwargs.pop(key, decl.default)
+                    if hasattr(value, "expr") and hasattr(value, "events"):
+                        self.signals[key] = value           # a Signal: symbolic in time
+                    else:
+                        self.input_defaults[key] = decl_value(label, key, value)
                 self._variables.append(VariableInfo(
                     key, decl, sym,
                     self._vector(label, key, "start", kwargs.pop(f"{key}_start", None), decl.shape),
                     self._vector(label, key, "guess", kwargs.pop(f"{key}_guess", None), decl.shape),
-                    self._vector(label, key, "nominal", kwargs.pop(f"{key}_nominal", decl.nominal), decl.shape)))
+                    self._vector(label, key, "nominal", kwargs.pop(f"{key}_nominal", decl.nominal), decl.shape),
+                    driven=key in self.signals))
         for port, connector in self._ports.items():
             for key, decl in connector._declarations.items():
                 self._variables.append(VariableInfo(
                     f"{port}.{key}", decl, connector._values[key], None, None,
                     np.full(decl.shape, float(decl.nominal))))
         if kwargs:
-            raise ParameterError(f"{label}: unknown argument(s) {', '.join(sorted(kwargs))}; "
-                                 f"parameters are {', '.join(self.parameter_names()) or 'none'}")
+            raise ParameterError(self._unknown_arguments(label, sorted(kwargs)))
         self.check()
 
     @staticmethod
@@ -170,6 +177,23 @@ class Component:
         if arr.size != shape or not np.all(np.isfinite(arr)):
             raise ParameterError(f"{label}: {key}_{what} = {value!r} must be {shape} finite number(s)")
         return arr
+
+    def _unknown_arguments(self, label: str, unknown: list) -> str:
+        valid = list(self.parameter_names())
+        for key, decl in self._declarations.items():
+            if isinstance(decl, Input):
+                valid.append(key)
+            elif isinstance(decl, Variable) and not isinstance(decl, (Across, Through)):
+                valid += [f"{key}_start", f"{key}_guess", f"{key}_nominal"]
+        hints = []
+        for word in unknown:
+            close = difflib.get_close_matches(word, valid, n=1)
+            if close:
+                hints.append(f"{word} (did you mean {close[0]}?)")
+            else:
+                hints.append(word)
+        return (f"{label}: unknown argument(s) {', '.join(hints)}; "
+                f"valid arguments are {', '.join(valid) or 'none'}")
 
     def __getattribute__(self, key):
         if not key.startswith("_"):
@@ -204,10 +228,18 @@ class Component:
     def variables(self) -> list[VariableInfo]:
         return list(self._variables)
 
+    def time_events(self) -> list[tuple[float, str]]:
+        """Times where a driving signal jumps or kinks, with what causes them."""
+        return [(float(t), f"{self.path}.{key}: {sig!r}") for key, sig in self.signals.items()
+                for t in sig.events()]
+
     def residuals(self) -> list[tuple[int, int, ca.SX, str]]:
         """Scalar residuals as (equation number, element, expression, doc)."""
         out = []
-        for k, eq in enumerate(self.equations()):
+        equations = list(self.equations())
+        for key, sig in self.signals.items():
+            equations.append(Eq(self._values[key], sig.expr(time), f"{key} driven by {sig!r}"))
+        for k, eq in enumerate(equations):
             doc = eq.doc if isinstance(eq, Eq) else ""
             res = eq.residual() if isinstance(eq, Eq) else ca.SX(eq)
             res = ca.reshape(res, -1, 1)
@@ -219,5 +251,13 @@ class Component:
         return f"<{type(self).__name__} {self.path}>"
 
 
-def finite(x) -> bool:
-    return math.isfinite(float(x))
+def decl_value(label: str, key: str, value) -> float:
+    """A constant input default: a finite number, or a Signal (handled by the caller)."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{label}: {key} = {value!r} must be a number or a signal "
+                             f"(mechnet.components.signals)") from None
+    if not math.isfinite(number):
+        raise ParameterError(f"{label}: {key} = {number} is not finite")
+    return number

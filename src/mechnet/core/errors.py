@@ -41,6 +41,10 @@ class UnknownNameError(MechnetError, KeyError):
         return str(self.args[0]) if self.args else ""
 
 
+class InputError(MechnetError, ValueError):
+    """An input value that cannot be used: wrong shape, not finite, not increasing in time."""
+
+
 class InitializationError(MechnetError):
     """No consistent initial point: conflicting or missing start values."""
 

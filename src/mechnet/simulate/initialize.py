@@ -150,3 +150,17 @@ def _too_many(conditions, unmatched, match, dae, w):
     raise InitializationError("too many fixed start values: the model has fewer states than fixed values "
                               "for them; remove one of each group (or make it a guess with *_guess=):\n"
                               + "\n".join(lines))
+
+
+def solve_algebraic(dae, t: float, x: np.ndarray, z_guess: np.ndarray, u: np.ndarray, p: np.ndarray,
+                    d: np.ndarray) -> np.ndarray:
+    """Algebraic variables consistent with the states at time t (after an event, or without states)."""
+    if dae.z.numel() == 0:
+        return np.zeros(0)
+    zs = ca.SX.sym("z", dae.z.numel())
+    residual = ca.Function("alg_at_t", [zs], [dae.alg(t, x, zs, u, p, d)])
+    z, r = _newton(residual, np.asarray(z_guess, dtype=float).copy())
+    if not np.all(np.isfinite(r)) or np.max(np.abs(r)) > 1e-8 * (1.0 + np.max(np.abs(z))):
+        raise InitializationError(f"re-initialisation at t = {t:g} s failed: algebraic residual "
+                                  f"{np.max(np.abs(r)):.3g} (variables {', '.join(dae.z_names[:5])})")
+    return z

@@ -3,13 +3,16 @@
 States are integrated in scaled form (x = nominal · xs) so that one absolute
 tolerance means `atol · nominal` for each variable. Time is normalised over a
 segment (t = t0 + τ·h, τ ∈ [0, 1]) with t0 and h as parameters, so one
-integrator serves every segment with the same output pattern: the event loop
-of later issues restarts segments without rebuilding anything.
+integrator serves every segment with the same output pattern.
 
-A failed integration never surfaces as a CasADi traceback: the grid is
-re-integrated interval by interval up to the failure, and the partial result
-comes back with an `IntegrationError` describing the time, the step size and
-the worst variable.
+The run is split into segments at time events (signal steps, table knots)
+and, for long grids, into a fixed number of chunks (for the progress bar):
+the integrator restarts exactly at each boundary, deterministically.
+
+A failed integration never surfaces as a CasADi traceback: the failing
+segment is re-integrated interval by interval up to the failure, and the
+partial result comes back with an `IntegrationError` describing the time, the
+step size and the worst variable.
 """
 from __future__ import annotations
 
@@ -21,17 +24,22 @@ import casadi as ca
 import numpy as np
 
 from ..core.errors import IntegrationError, MechnetError
-from .initialize import initialize
+from .events import Event, breakpoints, chunk_bounds, output_grid
+from .initialize import initialize, solve_algebraic
+from .inputs import plan_inputs
 from .result import Result, unknown_name
 
 METHODS = ("auto", "idas", "cvodes-bdf", "cvodes-adams")
+PROGRESS_CHUNKS = 20
+PROGRESS_MIN_POINTS = 1000
+PROGRESS_AFTER_SECONDS = 1.0
 
 
 class IntegrationWarning(UserWarning):
     """Issued when simulate() returns a partial result after a solver failure."""
 
 
-def _plugin(dae, method: str) -> tuple[str, dict]:
+def _plugin(dae, method: str) -> tuple[str, str, dict]:
     if method not in METHODS:
         raise MechnetError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     if method == "auto":
@@ -40,71 +48,77 @@ def _plugin(dae, method: str) -> tuple[str, dict]:
         raise MechnetError(f"method {method!r} needs an explicit ODE, but this model keeps "
                            f"{dae.z.numel()} algebraic variables ({', '.join(dae.z_names[:5])}); use 'idas' or 'auto'")
     if method == "idas":
-        return "idas", {}
+        return method, "idas", {}
     if method == "cvodes-bdf":
-        return "cvodes", {"linear_multistep_method": "bdf", "nonlinear_solver_iteration": "newton"}
-    return "cvodes", {"linear_multistep_method": "adams", "nonlinear_solver_iteration": "functional"}
+        return method, "cvodes", {"linear_multistep_method": "bdf", "nonlinear_solver_iteration": "newton"}
+    return method, "cvodes", {"linear_multistep_method": "adams", "nonlinear_solver_iteration": "functional"}
 
 
-def _build(dae, plugin: str, extra: dict, grid: tuple, rtol: float, atol: float, max_steps: int):
-    """One integrator on the normalised grid; parameters are [u; p; d; t0; h]."""
-    xs = ca.SX.sym("xs", dae.x.numel())
-    zs = ca.SX.sym("zs", dae.z.numel())
-    tau = ca.SX.sym("tau")
-    t0, h = ca.SX.sym("t0"), ca.SX.sym("h")
-    xn = ca.DM(list(dae.x_nominal)) if dae.x_nominal else ca.DM(0, 1)
-    zn = ca.DM(list(dae.z_nominal)) if dae.z_nominal else ca.DM(0, 1)
-    t = t0 + tau * h
-    x = xn * xs
-    z = zn * zs
-    args = (t, x, z, dae.u, dae.p, dae.d)
-    ode = h * dae.ode(*args) / xn
-    spec = {"x": xs, "t": tau, "p": ca.vertcat(dae.u, dae.p, dae.d, t0, h), "ode": ode}
-    if dae.z.numel():
-        spec["z"] = zs
-        spec["alg"] = dae.alg(*args)
-    opts = dict(extra, reltol=rtol, abstol=atol, max_num_steps=max_steps,
-                disable_internal_warnings=True, show_eval_warnings=False)
-    return ca.integrator("F", plugin, spec, 0.0, list(grid), opts)
+class _Integrators:
+    """Builds and caches one integrator per output pattern (normalised grid)."""
 
+    def __init__(self, cm, dae, plugin, extra, rtol, atol, max_steps, inputs):
+        self.cm, self.dae, self.plugin, self.extra = cm, dae, plugin, extra
+        self.rtol, self.atol, self.max_steps = rtol, atol, max_steps
+        self.inputs = inputs
+        self.base_key = (plugin, tuple(sorted(extra.items())), rtol, atol, max_steps, inputs.key())
 
-def _resolve(kind: str, given: dict | None, names: tuple, defaults: tuple) -> np.ndarray:
-    values = np.array(defaults, dtype=float)
-    for name, value in (given or {}).items():
-        if name not in names:
-            raise unknown_name(name, names, kind)
-        if not np.isscalar(value):
-            raise MechnetError(f"{kind} {name!r}: only constant values are supported here, got {type(value).__name__}")
-        value = float(value)
-        if not np.isfinite(value):
-            raise MechnetError(f"{kind} {name!r} = {value}: must be finite")
-        values[names.index(name)] = value
-    return values
+    def get(self, tau: tuple):
+        key = self.base_key + (tau,)
+        if key not in self.cm._integrators:
+            self.cm._integrators[key] = self._build(tau)
+        return self.cm._integrators[key]
+
+    def _build(self, tau: tuple):
+        """Parameters of the integrator: [u; p; d; t0; h]."""
+        dae = self.dae
+        sym = ca.MX if self.inputs.varying else ca.SX
+        xs, zs = sym.sym("xs", dae.x.numel()), sym.sym("zs", dae.z.numel())
+        s, t0, h = sym.sym("tau"), sym.sym("t0"), sym.sym("h")
+        u, p, d = sym.sym("u", dae.u.numel()), sym.sym("p", dae.p.numel()), sym.sym("d", dae.d.numel())
+        xn = ca.DM(list(dae.x_nominal)) if dae.x_nominal else ca.DM(0, 1)
+        zn = ca.DM(list(dae.z_nominal)) if dae.z_nominal else ca.DM(0, 1)
+        t = t0 + s * h
+        if self.inputs.varying:
+            interp = self.inputs.interpolants()
+            u_t = ca.vertcat(*[interp[k](t) if k in interp else u[k] for k in range(dae.u.numel())])
+        else:
+            u_t = u
+        args = (t, xn * xs, zn * zs, u_t, p, d)
+        spec = {"x": xs, "t": s, "p": ca.vertcat(u, p, d, t0, h), "ode": h * dae.ode(*args) / xn}
+        if dae.z.numel():
+            spec["z"] = zs
+            spec["alg"] = dae.alg(*args)
+        opts = dict(self.extra, reltol=self.rtol, abstol=self.atol, max_num_steps=self.max_steps,
+                    disable_internal_warnings=True, show_eval_warnings=False)
+        return ca.integrator("F", self.plugin, spec, 0.0, list(tau), opts)
 
 
 def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol: float = 1e-8,
              method: str = "auto", n_out: int | None = None, t_out=None, params: dict | None = None,
              inputs: dict | None = None, start: dict | None = None, guess: dict | None = None,
-             max_steps: int = 20_000) -> Result:
-    """Integrate the compiled model; see DESIGN.md for the meaning of each argument.
+             max_steps: int = 20_000, progress: bool | None = None) -> Result:
+    """Integrate the compiled model from `t_start` to `t_end`.
 
     `start` fixes values (any dotted name), `guess` only seeds the Newton
-    iteration. A solver failure returns the partial result with `result.failure`
-    set (and a warning); it does not raise.
+    iteration; `inputs` maps input names to numbers, callables f(t), (times,
+    values) pairs or N×2 arrays. `progress=None` shows a bar when a long grid
+    (≥ 1000 points) takes more than a second. A solver failure returns the
+    partial result with `result.failure` set (and a warning); it does not raise.
     """
     dae = cm.dae
-    plugin, extra = _plugin(dae, method)
-    if not (np.isfinite(t_end) and t_end > t_start):
-        raise MechnetError(f"t_end = {t_end} must be finite and greater than t_start = {t_start}")
+    method, plugin, extra = _plugin(dae, method)
     if t_out is not None:
         grid = np.asarray(t_out, dtype=float)
-        if grid.ndim != 1 or grid.size < 2 or np.any(np.diff(grid) <= 0):
-            raise MechnetError("t_out must be an increasing sequence of at least two times")
+        if grid.ndim != 1 or grid.size < 2 or np.any(np.diff(grid) <= 0) or not np.all(np.isfinite(grid)):
+            raise MechnetError("t_out must be an increasing sequence of at least two finite times")
         t_start, t_end = float(grid[0]), float(grid[-1])
     else:
+        if not (np.isfinite(t_end) and np.isfinite(t_start) and t_end > t_start):
+            raise MechnetError(f"t_end = {t_end} must be finite and greater than t_start = {t_start}")
         grid = np.linspace(t_start, t_end, int(n_out or 501))
-    u = _resolve("input", inputs, dae.u_names, dae.u_default)
-    p = _resolve("parameter", params, dae.p_names, dae.p_value)
+    plan = plan_inputs(dae, inputs, t_start, t_end, max(grid.size, 2001))
+    p = _resolve_params(dae, params)
     d = np.array(dae.d_value, dtype=float)
     starts = dict(dae.starts)
     for name, value in (start or {}).items():
@@ -116,113 +130,182 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
             raise unknown_name(name, dae.observed_names, "guess for")
 
     wall = _time.perf_counter()
-    init = initialize(dae, t_start, u, p, starts, guess or {})
-    xn = np.array(dae.x_nominal, dtype=float)
-    zn = np.array(dae.z_nominal, dtype=float)
-    h = t_end - t_start
-    tau = tuple(float(v) for v in (grid[1:] - t_start) / h)
-    pvec = np.concatenate([u, p, d, [t_start, h]])
-    key = (plugin, tuple(sorted(extra.items())), tau, rtol, atol, max_steps)
-    failure = None
-    stats = {}
-    if dae.x.numel() == 0:
-        X = np.zeros((grid.size, 0))
-        Z = np.tile(init.z, (grid.size, 1))
-    else:
-        if key not in cm._integrators:
-            cm._integrators[key] = _build(dae, plugin, extra, tau, rtol, atol, max_steps)
-        F = cm._integrators[key]
-        try:
-            out = F(x0=init.x / xn, z0=init.z / zn if zn.size else [], p=pvec)
-            X = np.vstack([init.x, (np.asarray(out["xf"]).T * xn)])
-            Z = np.vstack([init.z, (np.asarray(out["zf"]).T * zn)]) if zn.size else np.zeros((grid.size, 0))
-            stats = _stats(F, h)
-        except RuntimeError as exc:
-            grid, X, Z, failure, stats = _recover(cm, dae, plugin, extra, grid, init, pvec, xn, zn, rtol,
-                                                 atol, max_steps, u, p, d, str(exc))
+    init = initialize(dae, t_start, plan.constant, p, starts, guess or {})
+    events = breakpoints(dae.time_events, t_start, t_end)
+    grid = output_grid(grid, events)
+    run = _Run(cm, dae, plugin, extra, rtol, atol, max_steps, plan, p, d, init)
+    run.integrate(grid, events, progress)
+    stats = run.stats
     stats["wall_time"] = _time.perf_counter() - wall
-    stats["method"] = method if method != "auto" else ("cvodes-bdf" if dae.is_ode else "idas")
-    stats["plugin"] = plugin
-    values = _observe(dae, grid, X, Z, u, p, d)
-    result = Result(grid, values, dae.observed_names, dae.units, stats, X, Z, dae.x_names,
-                    failure=failure, initial={"fixed": init.fixed, "free_states": init.free_states,
-                                              "residual": init.residual})
-    if failure is not None:
-        failure.result = result
-        warnings.warn(str(failure), IntegrationWarning, stacklevel=2)
+    stats["method"], stats["plugin"] = method, plugin
+    T = np.array(run.T)
+    X = np.array(run.X).reshape(len(T), -1)
+    Z = np.array(run.Z).reshape(len(T), -1)
+    values = _observe(dae, T, X, Z, plan, p, d)
+    result = Result(T, values, dae.observed_names, dae.units, stats, X, Z, dae.x_names,
+                    events=run.events, failure=run.failure,
+                    initial={"fixed": init.fixed, "free_states": init.free_states, "residual": init.residual})
+    if run.failure is not None:
+        run.failure.result = result
+        warnings.warn(str(run.failure), IntegrationWarning, stacklevel=3)
     return result
 
 
-def _stats(F, h: float) -> dict:
-    s = F.stats()
-    keys = ("nsteps", "nfevals", "nlinsetups", "netfails", "nniters", "nncfails", "qlast")
-    out = {k: s[k] for k in keys if k in s}
-    out["hlast"] = float(s.get("hlast", float("nan"))) * h     # the solver runs in normalised time
-    return out
+def _resolve_params(dae, given: dict | None) -> np.ndarray:
+    values = np.array(dae.p_value, dtype=float)
+    for name, value in (given or {}).items():
+        if name not in dae.p_names:
+            raise unknown_name(name, dae.p_names, "tunable parameter")
+        if not np.isscalar(value) or not np.isfinite(float(value)):
+            raise MechnetError(f"parameter {name!r} = {value!r}: must be a finite number")
+        values[dae.p_names.index(name)] = float(value)
+    return values
 
 
-def _observe(dae, grid, X, Z, u, p, d) -> np.ndarray:
-    n = grid.size
-    if n == 0:
-        return np.zeros((0, len(dae.observed_names)))
-    obs = dae.observed.map(n)
-    y = obs(grid.reshape(1, -1), X.T, Z.T, np.tile(u.reshape(-1, 1), n),
-            np.tile(p.reshape(-1, 1), n), np.tile(d.reshape(-1, 1), n))
-    return np.asarray(y).T
+class _Run:
+    """The segment loop: integrate between boundaries, restart at events, stop at a failure."""
 
+    def __init__(self, cm, dae, plugin, extra, rtol, atol, max_steps, plan, p, d, init):
+        self.dae, self.plan, self.p, self.d = dae, plan, p, d
+        self.integrators = _Integrators(cm, dae, plugin, extra, rtol, atol, max_steps, plan)
+        self.xn = np.array(dae.x_nominal, dtype=float)
+        self.zn = np.array(dae.z_nominal, dtype=float)
+        self.T, self.X, self.Z = [], [], []
+        self.events: list[Event] = []
+        self.failure = None
+        self.stats = {"nsteps": 0, "nfevals": 0, "netfails": 0, "segments": 0}
+        self.x, self.z = init.x.copy(), init.z.copy()
 
-def _recover(cm, dae, plugin, extra, grid, init, pvec, xn, zn, rtol, atol, max_steps, u, p, d, message):
-    """Re-integrate one output interval at a time up to the failure, then close in on it.
+    def pvec(self, t0, h):
+        return np.concatenate([self.plan.constant, self.p, self.d, [t0, h]])
 
-    The failing interval is split in eight, three times over, so the partial
-    result ends within 1/512 of an output interval of the failure.
-    """
-    key = (plugin, tuple(sorted(extra.items())), (1.0,), rtol, atol, max_steps)
-    if key not in cm._integrators:
-        cm._integrators[key] = _build(dae, plugin, extra, (1.0,), rtol, atol, max_steps)
-    F1 = cm._integrators[key]
-    xs, zs = init.x / xn, (init.z / zn if zn.size else np.zeros(0))
-    T, X, Z = [grid[0]], [init.x], [init.z]
-    step = float("nan")
-    solver = _solver_message(message)
+    def integrate(self, grid, events, progress):
+        self.T.append(grid[0])
+        self.X.append(self.x.copy())
+        self.Z.append(self.z.copy())
+        if self.dae.x.numel() == 0:
+            for t in grid[1:]:
+                self.z = solve_algebraic(self.dae, t, self.x, self.z, self._u_at(t), self.p, self.d)
+                self.T.append(t)
+                self.X.append(self.x.copy())
+                self.Z.append(self.z.copy())
+            return
+        event_at = {t: cause for t, cause in events}
+        cuts = sorted({int(np.searchsorted(grid, t)) for t in event_at}
+                      | set(chunk_bounds(grid.size, PROGRESS_CHUNKS if grid.size >= PROGRESS_MIN_POINTS else 1)))
+        bounds = [0] + [c for c in cuts if 0 < c < grid.size - 1] + [grid.size - 1]
+        bar, started = None, _time.perf_counter()
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            ok = self._segment(grid[a: b + 1])
+            if not ok:
+                break
+            if grid[b] in event_at:
+                self._restart_at(grid[b], event_at[grid[b]])
+            if progress is not False and bar is None and len(bounds) > 2:
+                elapsed = _time.perf_counter() - started
+                expected = elapsed * (grid[-1] - grid[0]) / max(grid[b] - grid[0], 1e-300)
+                if progress or expected > PROGRESS_AFTER_SECONDS:
+                    from tqdm import tqdm
+                    bar = tqdm(total=float(grid[-1] - grid[0]), unit="s", desc="simulate", leave=False,
+                               bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s [{elapsed}<{remaining}]")
+                    bar.update(float(grid[b] - grid[0]))
+            elif bar is not None:
+                bar.update(float(grid[b] - grid[a]))
+        if bar is not None:
+            bar.close()
 
-    def advance(t_a, t_b):
-        nonlocal xs, zs, step, solver
-        pk = pvec.copy()
-        pk[-2], pk[-1] = t_a, t_b - t_a
+    def _u_at(self, t):
+        u = self.plan.constant.copy()
+        for k, (times, values) in self.plan.varying.items():
+            u[k] = float(np.interp(t, times, values))
+        return u
+
+    def _segment(self, points) -> bool:
+        t0, h = points[0], points[-1] - points[0]
+        tau = tuple(float(v) for v in (points[1:] - t0) / h)
+        F = self.integrators.get(tau)
+        xs = self.x / self.xn
+        zs = self.z / self.zn if self.zn.size else np.zeros(0)
         try:
-            out = F1(x0=xs, z0=zs, p=pk)
+            out = F(x0=xs, z0=zs, p=self.pvec(t0, h))
         except RuntimeError as exc:
-            solver = _solver_message(str(exc))
+            self._recover(points, str(exc))
             return False
-        step = float(F1.stats().get("hlast", float("nan"))) * (t_b - t_a)
-        xs = np.asarray(out["xf"]).ravel()
-        zs = np.asarray(out["zf"]).ravel() if zn.size else np.zeros(0)
-        T.append(t_b)
-        X.append(xs * xn)
-        Z.append(zs * zn)
+        xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn
+        zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn) if self.zn.size \
+            else np.zeros((xf.shape[0], 0))
+        self.T.extend(points[1:])
+        self.X.extend(xf)
+        self.Z.extend(zf)
+        self.x, self.z = xf[-1].copy(), zf[-1].copy()
+        s = F.stats()
+        for k in ("nsteps", "nfevals", "netfails"):
+            self.stats[k] += int(s.get(k, 0))
+        self.stats["segments"] += 1
+        self.stats["hlast"] = float(s.get("hlast", float("nan"))) * h
         return True
 
-    k = 0
-    while k < grid.size - 1 and advance(grid[k], grid[k + 1]):
-        k += 1
-    t_fail = grid[min(k + 1, grid.size - 1)]
-    if k < grid.size - 1:
-        lo, hi = grid[k], grid[k + 1]
-        for _ in range(3):
-            pieces = np.linspace(lo, hi, 9)
-            j = 0
-            while j < 8 and advance(pieces[j], pieces[j + 1]):
-                j += 1
-            lo, hi = pieces[j], pieces[min(j + 1, 8)]
-        t_fail = hi
-    X, Z = np.array(X), np.array(Z).reshape(len(X), -1)
-    worst = _worst_variable(dae, T[-1], X[-1], Z[-1], u, p, d, xn)
-    err = IntegrationError(
-        f"integration failed between t = {T[-1]:.6g} s and {t_fail:.6g} s (last step size {step:.3g} s); "
-        f"worst variable: {worst}; solver: {solver}. The result holds the solution up to t = {T[-1]:.6g} s",
-        t=float(T[-1]), step=step, worst=worst, solver_message=solver)
-    return np.array(T), X, Z, err, {"failed_at": float(T[-1])}
+    def _restart_at(self, t, cause):
+        """A time event: states are continuous; algebraic variables are re-solved at the new time."""
+        if self.zn.size:
+            self.z = solve_algebraic(self.dae, t, self.x, self.z, self._u_at(t), self.p, self.d)
+            self.Z[-1] = self.z.copy()
+        self.events.append(Event(float(t), "time", cause))
+
+    def _recover(self, points, message):
+        """Re-integrate interval by interval up to the failure, then close in on it (1/512 of an interval)."""
+        solver = _solver_message(message)
+        step = float("nan")
+
+        def advance(t_a, t_b) -> bool:
+            nonlocal solver, step
+            F1 = self.integrators.get((1.0,))
+            try:
+                out = F1(x0=self.x / self.xn, z0=self.z / self.zn if self.zn.size else np.zeros(0),
+                         p=self.pvec(t_a, t_b - t_a))
+            except RuntimeError as exc:
+                solver = _solver_message(str(exc))
+                return False
+            step = float(F1.stats().get("hlast", float("nan"))) * (t_b - t_a)
+            self.x = np.asarray(out["xf"]).ravel() * self.xn
+            self.z = np.asarray(out["zf"]).ravel() * self.zn if self.zn.size else np.zeros(0)
+            self.T.append(t_b)
+            self.X.append(self.x.copy())
+            self.Z.append(self.z.copy())
+            return True
+
+        k = 0
+        while k < points.size - 1 and advance(points[k], points[k + 1]):
+            k += 1
+        t_fail = points[min(k + 1, points.size - 1)]
+        if k < points.size - 1:
+            lo, hi = points[k], points[k + 1]
+            for _ in range(3):
+                pieces = np.linspace(lo, hi, 9)
+                j = 0
+                while j < 8 and advance(pieces[j], pieces[j + 1]):
+                    j += 1
+                lo, hi = pieces[j], pieces[min(j + 1, 8)]
+            t_fail = hi
+        t_good = self.T[-1]
+        worst = _worst_variable(self.dae, t_good, self.x, self.z, self._u_at(t_good), self.p, self.d, self.xn)
+        self.failure = IntegrationError(
+            f"integration failed between t = {t_good:.6g} s and {t_fail:.6g} s (last step size {step:.3g} s); "
+            f"worst variable: {worst}; solver: {solver}. The result holds the solution up to t = {t_good:.6g} s",
+            t=float(t_good), step=step, worst=worst, solver_message=solver)
+        self.stats["failed_at"] = float(t_good)
+
+
+def _observe(dae, T, X, Z, plan, p, d) -> np.ndarray:
+    n = T.size
+    if n == 0:
+        return np.zeros((0, len(dae.observed_names)))
+    U = np.tile(plan.constant.reshape(-1, 1), n)
+    for k, (times, values) in plan.varying.items():
+        U[k] = np.interp(T, times, values)
+    y = dae.observed.map(n)(T.reshape(1, -1), X.T, Z.T, U, np.tile(p.reshape(-1, 1), n),
+                            np.tile(d.reshape(-1, 1), n))
+    return np.asarray(y).T
 
 
 def _solver_message(text: str) -> str:

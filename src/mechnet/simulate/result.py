@@ -48,9 +48,26 @@ class Result:
         return name in self._column
 
     @property
+    def final_time(self) -> float:
+        return float(self.t[-1])
+
+    @property
     def final_state(self) -> dict:
-        """State values at the last time point, usable as `simulate(start=...)`."""
+        """State values at the last time point: continue with `simulate(t_end, t_start=res.final_time, start=res.final_state)`."""
         return {n: float(self.x[-1, k]) for k, n in enumerate(self.state_names)}
+
+    def to_csv(self, path, names=None) -> None:
+        """Write time and the named variables (default: every name) as CSV with a units row comment."""
+        names = list(names) if names else list(self.names)
+        for n in names:
+            if n not in self._column:
+                raise unknown_name(n, self.names)
+        data = np.column_stack([self.t] + [self[n] for n in names])
+        header = ",".join(["time"] + names)
+        units = "# units: " + ",".join(["s"] + [self.units.get(n, "1") for n in names])
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(units + "\n" + header + "\n")
+            np.savetxt(fh, data, delimiter=",", fmt="%.17g")
 
     def plot(self, names=None, ax=None):
         """Plot named variables against time (default: the states); returns the matplotlib Figure."""

@@ -1,0 +1,160 @@
+"""Signals: functions of time, symbolic in `time`, that know their discontinuities.
+
+A signal drives an input of a component (`rot.Torque(name="tq", tau=Step(2.0, start_time=1.0))`).
+Because the value is a CasADi expression of time, prescribed motion built on
+it can be differentiated, and the times where the signal or its slope jumps
+are handed to the simulator as time events: the integrator stops and
+restarts exactly there instead of stepping across a kink.
+"""
+from __future__ import annotations
+
+import math
+
+import casadi as ca
+import numpy as np
+
+from ..core.errors import ParameterError
+
+
+def _number(owner: str, name: str, value) -> float:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{owner}: {name} = {value!r} is not a number") from None
+    if not math.isfinite(number):
+        raise ParameterError(f"{owner}: {name} = {number} is not finite")
+    return number
+
+
+class Signal:
+    """Base class: `expr(time)` gives the value, `events()` the times of jumps and kinks."""
+
+    def expr(self, time: ca.SX) -> ca.SX:
+        raise NotImplementedError
+
+    def events(self) -> tuple:
+        return ()
+
+    def __call__(self, t):
+        """Numeric value at time(s) t (for plots and tests)."""
+        s = ca.SX.sym("t")
+        f = ca.Function("signal", [s], [self.expr(s)])
+        return np.array([float(f(v)) for v in np.atleast_1d(t)]).reshape(np.shape(t))
+
+
+class Constant(Signal):
+    """y = k."""
+
+    def __init__(self, k: float):
+        self.k = _number("Constant", "k", k)
+
+    def expr(self, time):
+        return ca.SX(self.k)
+
+    def __repr__(self):
+        return f"Constant({self.k:g})"
+
+
+class Step(Signal):
+    """y = offset before start_time, offset + height from start_time on."""
+
+    def __init__(self, height: float = 1.0, *, offset: float = 0.0, start_time: float = 0.0):
+        self.height = _number("Step", "height", height)
+        self.offset = _number("Step", "offset", offset)
+        self.start_time = _number("Step", "start_time", start_time)
+
+    def expr(self, time):
+        return self.offset + ca.if_else(time >= self.start_time, self.height, 0.0)
+
+    def events(self):
+        return (self.start_time,)
+
+    def __repr__(self):
+        return f"Step(height={self.height:g}, start_time={self.start_time:g})"
+
+
+class Ramp(Signal):
+    """Rises linearly by `height` over `duration` from start_time, then holds."""
+
+    def __init__(self, height: float = 1.0, duration: float = 1.0, *, offset: float = 0.0,
+                 start_time: float = 0.0):
+        self.height = _number("Ramp", "height", height)
+        self.duration = _number("Ramp", "duration", duration)
+        if self.duration <= 0:
+            raise ParameterError(f"Ramp: duration = {self.duration:g} must be > 0")
+        self.offset = _number("Ramp", "offset", offset)
+        self.start_time = _number("Ramp", "start_time", start_time)
+
+    def expr(self, time):
+        tau = ca.fmin(ca.fmax(time - self.start_time, 0.0), self.duration)
+        return self.offset + self.height * tau / self.duration
+
+    def events(self):
+        return (self.start_time, self.start_time + self.duration)
+
+    def __repr__(self):
+        return f"Ramp(height={self.height:g}, duration={self.duration:g}, start_time={self.start_time:g})"
+
+
+class Sine(Signal):
+    """y = offset + amplitude·sin(2π·f·(t − start_time) + phase) from start_time on (offset before)."""
+
+    def __init__(self, amplitude: float = 1.0, f: float = 1.0, *, phase: float = 0.0, offset: float = 0.0,
+                 start_time: float = 0.0):
+        self.amplitude = _number("Sine", "amplitude", amplitude)
+        self.f = _number("Sine", "f", f)
+        self.phase = _number("Sine", "phase", phase)
+        self.offset = _number("Sine", "offset", offset)
+        self.start_time = _number("Sine", "start_time", start_time)
+
+    def expr(self, time):
+        wave = self.amplitude * ca.sin(2 * math.pi * self.f * (time - self.start_time) + self.phase)
+        if self.start_time <= 0.0:
+            return self.offset + wave
+        return self.offset + ca.if_else(time >= self.start_time, wave, 0.0)
+
+    def events(self):
+        return (self.start_time,) if self.start_time > 0.0 else ()
+
+    def __repr__(self):
+        return f"Sine(amplitude={self.amplitude:g}, f={self.f:g} Hz)"
+
+
+class Table(Signal):
+    """Piecewise-linear interpolation in a table of (time, value) knots; held constant outside it.
+
+    Written as a sum of slope changes, so the expression stays symbolic and
+    differentiable between knots; every interior knot is a time event.
+    """
+
+    def __init__(self, times, values):
+        t = np.asarray(times, dtype=float).ravel()
+        y = np.asarray(values, dtype=float).ravel()
+        if t.size < 2 or t.size != y.size:
+            raise ParameterError(f"Table: needs at least two knots and as many values as times "
+                                 f"(got {t.size} times, {y.size} values)")
+        if not (np.all(np.isfinite(t)) and np.all(np.isfinite(y))):
+            raise ParameterError("Table: times and values must be finite")
+        bad = np.flatnonzero(np.diff(t) <= 0)
+        if bad.size:
+            k = int(bad[0])
+            raise ParameterError(f"Table: times must be strictly increasing, but time[{k}] = {t[k]:g} "
+                                 f"and time[{k + 1}] = {t[k + 1]:g}")
+        self.times, self.values = t, y
+
+    def expr(self, time):
+        t, y = self.times, self.values
+        clamped = ca.fmin(ca.fmax(time, t[0]), t[-1])
+        slopes = np.diff(y) / np.diff(t)
+        changes = np.diff(np.concatenate([[0.0], slopes]))
+        out = ca.SX(y[0])
+        for tk, dk in zip(t[:-1], changes):
+            if dk != 0.0:
+                out = out + dk * ca.fmax(clamped - tk, 0.0)
+        return out
+
+    def events(self):
+        return tuple(float(v) for v in self.times)
+
+    def __repr__(self):
+        return f"Table({self.times.size} knots, t = {self.times[0]:g}..{self.times[-1]:g} s)"

@@ -1,0 +1,9 @@
+"""1D translational mechanics (Modelica.Mechanics.Translational conventions)."""
+from .elements import Damper, Fixed, Mass, Spring, SpringDamper
+from .interfaces import Flange, PartialCompliant, PartialOneFlange, PartialTwoFlanges
+from .sensors import ForceSensor, PositionSensor, PowerSensor, SpeedSensor
+from .sources import ConstantForce, Force
+
+__all__ = ["Flange", "PartialTwoFlanges", "PartialCompliant", "PartialOneFlange", "Mass", "Spring",
+           "Damper", "SpringDamper", "Fixed", "Force", "ConstantForce", "PositionSensor", "SpeedSensor",
+           "ForceSensor", "PowerSensor"]

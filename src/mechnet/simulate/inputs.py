@@ -1,0 +1,87 @@
+"""External inputs: constants, arrays and Python callables, sampled into CasADi interpolants.
+
+A callable is never called inside the integrator: it is sampled once on a
+fine grid over the run, checked (shape, finiteness — naming the input and the
+time of a bad value), and handed to the integrator as a linear interpolant.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..core.errors import InputError
+from .result import unknown_name
+
+
+@dataclass(frozen=True)
+class InputPlan:
+    constant: np.ndarray            # value of every input (time-varying ones: their value at t_start)
+    varying: dict                   # input index -> (times, values) arrays
+
+    def key(self) -> tuple:
+        return tuple((k, t.tobytes(), v.tobytes()) for k, (t, v) in sorted(self.varying.items()))
+
+    def interpolants(self) -> dict:
+        return {k: ca.interpolant(f"input_{k}", "linear", [t], v) for k, (t, v) in self.varying.items()}
+
+
+def plan_inputs(dae, given: dict | None, t_start: float, t_end: float, n_samples: int) -> InputPlan:
+    names = dae.u_names
+    constant = np.array(dae.u_default, dtype=float)
+    varying = {}
+    for name, value in (given or {}).items():
+        if name not in names:
+            if name in dae.observed_names:
+                raise InputError(f"{name!r} is a variable of the model, not an input; the inputs are "
+                                 f"{', '.join(names) or 'none (add a Torque/Force input component)'}")
+            raise unknown_name(name, names, "input")
+        k = names.index(name)
+        if callable(value):
+            times = np.linspace(t_start, t_end, max(n_samples, 2))
+            values = np.empty_like(times)
+            for i, t in enumerate(times):
+                out = np.asarray(value(float(t)), dtype=float)
+                if out.size != 1:
+                    raise InputError(f"input {name!r}: the callable returned shape {out.shape} at t = {t:g} s; "
+                                     f"it must return one number")
+                if not np.isfinite(out.reshape(())):
+                    raise InputError(f"input {name!r}: the callable returned {float(out.reshape(()))} at "
+                                     f"t = {t:g} s; values must be finite")
+                values[i] = float(out.reshape(()))
+            varying[k] = (times, values)
+        elif np.isscalar(value) or np.ndim(value) == 0:
+            v = float(value)
+            if not np.isfinite(v):
+                raise InputError(f"input {name!r} = {v}: must be finite")
+            constant[k] = v
+        else:
+            times, values = _table(name, value)
+            varying[k] = (times, values)
+    for k, (times, values) in varying.items():
+        constant[k] = float(np.interp(t_start, times, values))
+    return InputPlan(constant, varying)
+
+
+def _table(name, value):
+    if isinstance(value, tuple) and len(value) == 2:
+        times, values = (np.asarray(v, dtype=float).ravel() for v in value)
+    else:
+        arr = np.asarray(value, dtype=float)
+        if arr.ndim != 2 or arr.shape[1] != 2:
+            raise InputError(f"input {name!r}: give a number, a callable f(t), a (times, values) pair or an "
+                             f"N×2 array of [time, value] rows (got shape {arr.shape})")
+        times, values = arr[:, 0], arr[:, 1]
+    if times.size < 2 or times.size != values.size:
+        raise InputError(f"input {name!r}: needs at least two samples and as many values as times")
+    bad = np.flatnonzero(np.diff(times) <= 0)
+    if bad.size:
+        k = int(bad[0])
+        raise InputError(f"input {name!r}: times must be strictly increasing (time[{k}] = {times[k]:g}, "
+                         f"time[{k + 1}] = {times[k + 1]:g})")
+    nonfinite = np.flatnonzero(~np.isfinite(values))
+    if nonfinite.size or not np.all(np.isfinite(times)):
+        k = int(nonfinite[0]) if nonfinite.size else 0
+        raise InputError(f"input {name!r}: value {values[k]} at t = {times[k]:g} s is not finite")
+    return times, values
