@@ -2,8 +2,8 @@
 from .elements import Damper, Fixed, Mass, Spring, SpringDamper
 from .interfaces import Flange, PartialCompliant, PartialOneFlange, PartialTwoFlanges
 from .sensors import ForceSensor, PositionSensor, PowerSensor, SpeedSensor
-from .sources import ConstantForce, Force
+from .sources import ConstantForce, Force, Position
 
 __all__ = ["Flange", "PartialTwoFlanges", "PartialCompliant", "PartialOneFlange", "Mass", "Spring",
-           "Damper", "SpringDamper", "Fixed", "Force", "ConstantForce", "PositionSensor", "SpeedSensor",
+           "Damper", "SpringDamper", "Fixed", "Force", "ConstantForce", "Position", "PositionSensor", "SpeedSensor",
            "ForceSensor", "PowerSensor"]

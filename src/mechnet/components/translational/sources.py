@@ -25,3 +25,16 @@ class ConstantForce(PartialOneFlange):
 
     def equations(self):
         return [Eq(self.flange.f, -self.f_constant, "the source drives its flange with +f_constant")]
+
+
+class Position(PartialOneFlange):
+    """Prescribed position: flange.s = s_ref (an input, or a signal such as a road profile).
+
+    Through a compliant element (a tyre spring) this is an ordinary equation.
+    Attached rigidly to a mass it fixes a state, which needs index reduction.
+    """
+
+    s_ref = Input(unit="m", doc="prescribed position of the flange")
+
+    def equations(self):
+        return [Eq(self.flange.s, self.s_ref, "the flange follows s_ref")]
