@@ -116,7 +116,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     guesses = {v.name: (v.guess if v.guess is not None else v.default_start) for v in original.variables}
     nominal = {v.name: v.nominal for v in original.variables}
     info = {"solved": len(value), "torn": len(z_index),
-            "observed_only": _count_observed_only(value, depends, flat, z_index),
+            "observed_only": _count_observed_only(value, depends, flat, z_index, original),
             "nominal": nominal}
     return SemiExplicitDAE(
         name=flat.name, t=t, x=x, z=z, u=u, p=p, d=d,
@@ -133,8 +133,12 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
         p_value=tuple(q.value for q in flat.parameters), d_value=(), time_events=flat.time_events, info=info)
 
 
-def _count_observed_only(value, depends, flat, z_index) -> int:
-    """Solved variables the integrated equations never need: computed only when observed (pruned)."""
+def _count_observed_only(value, depends, flat, z_index, original) -> int:
+    """Variables the integrated equations never need, computed only when observed (pruned).
+
+    Solved variables outside the dependency cone of ode/alg, plus sensor outputs
+    that simplify already reduced to an alias or a constant.
+    """
     stack = [j for j, _ in flat.der_of.values() if j is not None] + list(z_index)
     needed = set()
     while stack:
@@ -143,4 +147,6 @@ def _count_observed_only(value, depends, flat, z_index) -> int:
             continue
         needed.add(i)
         stack.extend(depends.get(i, ()))
-    return sum(1 for i in value if i not in needed)
+    survivors = {v.name for v in flat.variables}
+    eliminated_outputs = sum(1 for v in original.variables if v.kind == "output" and v.name not in survivors)
+    return sum(1 for i in value if i not in needed) + eliminated_outputs

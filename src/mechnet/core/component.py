@@ -234,7 +234,7 @@ class Component:
                 for t in sig.events()]
 
     def residuals(self) -> list[tuple[int, int, ca.SX, str]]:
-        """Scalar residuals as (equation number, element, expression, doc)."""
+        """Scalar residuals as (equation number, element or None for a scalar equation, expression, doc)."""
         out = []
         equations = list(self.equations())
         for key, sig in self.signals.items():
@@ -244,7 +244,7 @@ class Component:
             res = eq.residual() if isinstance(eq, Eq) else ca.SX(eq)
             res = ca.reshape(res, -1, 1)
             for i in range(res.numel()):
-                out.append((k + 1, i, res[i], doc))
+                out.append((k + 1, i if res.numel() > 1 else None, res[i], doc))
         return out
 
     def __repr__(self):

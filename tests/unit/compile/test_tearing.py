@@ -1,0 +1,111 @@
+"""solve_block: explicit solutions where safe, tearing variables and residuals where not."""
+import casadi as ca
+import numpy as np
+import pytest
+from scipy.optimize import fsolve
+
+from mechnet.compile.tearing import solve_block
+from stage_scenes import evaluate
+
+
+@pytest.fixture
+def syms():
+    """Symbols of a little block: a known state x, a parameter p, unknowns z1, z2, z3, a, b."""
+    names = ["x", "p", "z1", "z2", "z3", "a", "b"]
+    s = [ca.SX.sym(n) for n in names]
+    return dict(zip(names, range(len(names)))), s
+
+
+def test_a_linear_two_by_two_block_is_solved_explicitly(syms):
+    at, s = syms
+    x, a, b = s[at["x"]], s[at["a"]], s[at["b"]]
+    sol = solve_block([a + b - x, a - b - 2 * x], [at["a"], at["b"]], s, set())
+    assert sol.tears == [] and sol.residuals == []
+    solved = dict(sol.solved)
+    assert set(solved) == {at["a"], at["b"]}
+    for expr in solved.values():
+        assert set(v.name() for v in ca.symvar(expr)) <= {"x"}
+    x0 = 0.8
+    # a = 1.5 x, b = -0.5 x; static (no horizon), one 2x2 solve on O(1) numbers (x = 0.8):
+    # rtol 1e-14, atol 0
+    assert evaluate([solved[at["a"]]], [x], [x0])[0] == pytest.approx(1.5 * x0, rel=1e-14, abs=0)
+    assert evaluate([solved[at["b"]]], [x], [x0])[0] == pytest.approx(-0.5 * x0, rel=1e-14, abs=0)
+
+
+def test_a_coefficient_made_of_parameters_is_solved_explicitly(syms):
+    at, s = syms
+    x, p, z = s[at["x"]], s[at["p"]], s[at["z1"]]
+    sol = solve_block([p * z - x], [at["z1"]], s, {p.element_hash()})
+    assert sol.tears == [] and sol.residuals == []
+    ((var, expr),) = sol.solved
+    assert var == at["z1"]
+    # z = x / p (one division); static, scale 1.5: rtol 1e-15, atol 0
+    assert evaluate([expr], [x, p], [3.0, 2.0])[0] == pytest.approx(1.5, rel=1e-15, abs=0)
+
+
+@pytest.mark.parametrize("make, why", [
+    (lambda x, z: x * z - 1, "coefficient x may vanish"),
+    (lambda x, z: ca.cos(x) * z - 1, "coefficient cos(x) may vanish"),
+    (lambda x, z: z + z ** 3 - x, "nonlinear in z"),
+], ids=["state-coefficient", "cos-coefficient", "cubic"])
+def test_a_scalar_equation_that_cannot_be_solved_safely_stays_torn(syms, make, why):
+    at, s = syms
+    x, z = s[at["x"]], s[at["z1"]]
+    residual = make(x, z)
+    sol = solve_block([residual], [at["z1"]], s, set())
+    assert sol.solved == [], why
+    assert sol.tears == [at["z1"]]
+    assert len(sol.residuals) == 1
+    # the residual kept is the equation itself (nothing was substituted into it); static,
+    # values of scale 1: identical up to rounding, rtol 0, atol 1e-15
+    pts = [(0.7, 1.3), (-0.4, 2.1)]
+    for pt in pts:
+        np.testing.assert_allclose(evaluate(sol.residuals, [x, z], pt), evaluate([residual], [x, z], pt),
+                                   rtol=0, atol=1e-15)
+
+
+def nonlinear_block(s, at):
+    x, z1, z2, z3 = (s[at[n]] for n in ("x", "z1", "z2", "z3"))
+    return [z1 + z2 ** 3 - x, z2 - ca.sin(z3), z3 - (z1 - 1)]
+
+
+def test_a_nonlinear_cycle_is_torn_once(syms):
+    at, s = syms
+    block = [at["z1"], at["z2"], at["z3"]]
+    sol = solve_block(nonlinear_block(s, at), block, s, set())
+    assert len(sol.tears) == 1 and len(sol.residuals) == 1
+    assert len(sol.solved) == 2
+    assert {v for v, _ in sol.solved} | set(sol.tears) == set(block)
+    tear = s[sol.tears[0]]
+    # the explicit part and the residual depend on the known x and the tear variable only
+    for expr in [e for _, e in sol.solved] + sol.residuals:
+        assert {v.element_hash() for v in ca.symvar(expr)} <= {tear.element_hash(), s[at["x"]].element_hash()}
+
+
+def test_the_torn_system_reproduces_the_full_solution(syms):
+    at, s = syms
+    x0 = 2.0
+    block = [at["z1"], at["z2"], at["z3"]]
+    sol = solve_block(nonlinear_block(s, at), block, s, set())
+    tear = s[sol.tears[0]]
+    x = s[at["x"]]
+    # torn: one scalar Newton iteration on the residual (CasADi rootfinder)
+    g = ca.Function("g", [tear, x], [sol.residuals[0]])
+    root = ca.rootfinder("root", "newton", g, {"abstol": 1e-15, "max_iter": 50})
+    t_value = float(root(1.0, x0))
+    torn = {sol.tears[0]: t_value}
+    for v, expr in sol.solved:
+        torn[v] = float(evaluate([expr], [tear, x], [t_value, x0])[0])
+
+    # full: scipy on all three equations, written independently of the block above
+    def full(z):
+        z1, z2, z3 = z
+        return [z1 + z2 ** 3 - x0, z2 - np.sin(z3), z3 - z1 + 1]
+
+    reference, info, flag, msg = fsolve(full, [1.0, 0.0, 0.0], xtol=1e-14, full_output=True)
+    assert flag == 1, msg
+    assert np.max(np.abs(full(reference))) < 1e-14       # fsolve xtol 1e-14; residuals of scale 1
+    # static (no horizon): Newton abstol 1e-15 on the torn residual, fsolve xtol 1e-14 on the
+    # full system; solution values of scale 1: rtol 0, atol 1e-10
+    for k, name in enumerate(("z1", "z2", "z3")):
+        assert torn[at[name]] == pytest.approx(reference[k], rel=0, abs=1e-10), name
