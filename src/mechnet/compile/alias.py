@@ -88,9 +88,21 @@ class _Classes:
         return True
 
     def _merge_derivatives(self, dj, ds, kj, ks):
+        """The derivatives of two aliased states are aliases too (the differentiated alias equation)."""
         if dj is None or kj is None:
             return
-        self.union(dj, kj, ks / ds)
+        if self.union(dj, kj, ks / ds):
+            return
+        (ra, sa), (rb, sb) = self.find(dj), self.find(kj)
+        if ra in self.const and rb in self.const:
+            self._require_equal(dj, sa * self.const[ra], (ks / ds) * sb * self.const[rb])
+
+    def _require_equal(self, i, a, b):
+        if abs(a - b) > 1e-12 * max(1.0, abs(a), abs(b)):
+            name = self.flat.variables[i].name
+            raise StructureError(f"{name} would have to equal both {a:g} and {b:g}: the model over-determines "
+                                 f"it (e.g. a rigid connection to a fixed element plus a prescribed value); "
+                                 f"remove one of the constraints on {name}")
 
     def set_const(self, i, value) -> bool:
         r, s = self.find(i)
@@ -101,8 +113,10 @@ class _Classes:
         self.const[r] = s * value
         if r in self.der_of:                   # a constant's derivative is zero
             dj, ds = self.der_of.pop(r)
-            if dj is not None:
-                self.set_const(dj, 0.0)
+            if dj is not None and not self.set_const(dj, 0.0):
+                rd, sd = self.find(dj)
+                if rd in self.const:
+                    self._require_equal(dj, sd * self.const[rd], 0.0)
         return True
 
     def expression(self, i, symbols):
@@ -146,12 +160,15 @@ def simplify(flat: FlatSystem, options: SimplifyOptions = SimplifyOptions()) -> 
             if not offset.is_constant():
                 continue
             offset = float(ca.evalf(offset))
-            if len(vs) == 1 and coeffs[0] != 0.0:
-                used = classes.set_const(vs[0], -offset / coeffs[0])
-            elif len(vs) == 2 and offset == 0.0 and abs(coeffs[0]) == abs(coeffs[1]) and coeffs[0] != 0:
-                used = classes.union(vs[0], vs[1], -coeffs[1] / coeffs[0])
-            else:
-                used = False
+            try:
+                if len(vs) == 1 and coeffs[0] != 0.0:
+                    used = classes.set_const(vs[0], -offset / coeffs[0])
+                elif len(vs) == 2 and offset == 0.0 and abs(coeffs[0]) == abs(coeffs[1]) and coeffs[0] != 0:
+                    used = classes.union(vs[0], vs[1], -coeffs[1] / coeffs[0])
+                else:
+                    used = False
+            except StructureError as exc:
+                raise StructureError(f"{flat.equations[e].describe()}: {exc}") from None
             if used:
                 active[e] = False
                 changed = True
@@ -191,5 +208,6 @@ def simplify(flat: FlatSystem, options: SimplifyOptions = SimplifyOptions()) -> 
             n_alias += 1
     equations = tuple(replace(eq, residual=residuals[e]) for e, eq in enumerate(flat.equations) if active[e])
     reduced = FlatSystem(flat.name, variables, equations, flat.parameters, der_of, flat.time,
-                         flat.effects, stage="simplify", time_events=flat.time_events)
+                         flat.effects, stage="simplify", time_events=flat.time_events,
+                         folded_parameters=flat.folded_parameters)
     return reduced, AliasMap(expressions, n_alias, n_const, removed + (len(flat.equations) - len(equations) - removed))

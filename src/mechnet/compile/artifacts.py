@@ -48,6 +48,8 @@ class Parameter:
     symbol: ca.SX
     value: float
     unit: str = "1"
+    declaration: object = None        # the Param, so a new value is checked like at construction
+    owner: str = ""                   # "s (Spring)"
 
 
 @dataclass(frozen=True)
@@ -66,6 +68,7 @@ class FlatSystem:
     effects: tuple = ()
     stage: str = "flatten"
     time_events: tuple = ()       # (time, cause): where a signal jumps or kinks
+    folded_parameters: tuple = ()  # names of parameters folded into the equations as numbers
 
     def index_of(self) -> dict[str, int]:
         return {v.name: i for i, v in enumerate(self.variables)}

@@ -35,6 +35,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     value: dict[int, ca.SX] = {}          # variable index -> expression in base symbols
     z_index: list[int] = []
     alg: list[ca.SX] = []
+    alg_labels: list[str] = []
 
     position = {s.element_hash(): i for i, s in enumerate(symbols)}
     depends: dict[int, set] = {}           # variable -> the unknowns its block reads
@@ -55,13 +56,14 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
             sol = solve_block(residuals, block_vars, symbols, param_hashes)
         else:
             from .tearing import BlockSolution
-            sol = BlockSolution([], list(block_vars), residuals)
+            sol = BlockSolution([], list(block_vars), residuals, list(range(len(block))))
         for i, expr in sol.solved:
             value[i] = expr
         for i in block_vars:
             depends[i] = block_reads
         z_index.extend(sol.tears)
         alg.extend(sol.residuals)
+        alg_labels.extend(flat.equations[block[k]].describe() for k in sol.rows)
     # torn variables are base symbols: substitute them nowhere, but observed reads them
     x_index = sorted(flat.der_of)
     u_index = [i for i, v in enumerate(variables) if v.kind == "input"]
@@ -115,7 +117,8 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     starts = {v.name: v.start for v in original.variables if v.start is not None}
     guesses = {v.name: (v.guess if v.guess is not None else v.default_start) for v in original.variables}
     nominal = {v.name: v.nominal for v in original.variables}
-    info = {"solved": len(value), "torn": len(z_index),
+    info = {"alg_labels": tuple(alg_labels), "solved": len(value), "folded_parameters": flat.folded_parameters,
+            "parameter_checks": {q.name: (q.declaration, q.owner) for q in flat.parameters}, "torn": len(z_index),
             "observed_only": _count_observed_only(value, depends, flat, z_index, original),
             "nominal": nominal}
     return SemiExplicitDAE(

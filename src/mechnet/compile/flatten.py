@@ -45,6 +45,7 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
     equations: list[FlatEquation] = []
     effects: dict[str, int] = {}
     time_events: list[tuple[float, str]] = []
+    folded: list[str] = []
 
     def add_variable(var: FlatVariable):
         by_hash[var.symbol.element_hash()] = len(variables)
@@ -71,7 +72,11 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
                     input_default=comp.input_defaults.get(info.local_name, 0.0)))
         for key, (sym, value) in comp.tunable.items():
             decl = type(comp)._declarations[key]
-            parameters.append(Parameter(f"{comp.path}.{key}", sym, value, decl.unit))
+            parameters.append(Parameter(f"{comp.path}.{key}", sym, value, decl.unit, decl,
+                                        f"{comp.path} ({ctype})"))
+        for key in comp.parameter_names():
+            if key not in comp.tunable:
+                folded.append(f"{comp.path}.{key}")
 
     for comp in components:
         label = f"{comp.path} ({type(comp).__name__})"
@@ -107,5 +112,6 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
                 ensure(s, eq)
 
     return FlatSystem(model.name, tuple(variables), tuple(equations), tuple(parameters), der_of, time,
-                      tuple(sorted(effects.items())), time_events=tuple(sorted(time_events)))
+                      tuple(sorted(effects.items())), time_events=tuple(sorted(time_events)),
+                      folded_parameters=tuple(folded))
 

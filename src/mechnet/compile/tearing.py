@@ -13,7 +13,7 @@ part the integrator sees.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as ca
 
@@ -23,6 +23,7 @@ class BlockSolution:
     solved: list            # (variable index, expression) in solving order
     tears: list             # variable indices kept as algebraic unknowns
     residuals: list         # expressions that must vanish
+    rows: list = field(default_factory=list)  # for each residual, its position in the block (to name the equation)
 
 
 def solvable_coefficient(coef: ca.SX, known_symbols: set) -> bool:
@@ -52,7 +53,7 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
     unknown = {symbols[v].element_hash(): v for v in variables}
     pending = list(range(n))
     current = list(residuals)
-    solved, tears, out_res = [], [], []
+    solved, tears, out_res, rows = [], [], [], []
     remaining = set(variables)
 
     def unknowns_of(k):
@@ -65,6 +66,7 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
             unk = unknowns_of(k)
             if not unk:
                 out_res.append(current[k])
+                rows.append(k)
                 pending.remove(k)
                 progress = True
             elif len(unk) == 1:
@@ -89,7 +91,7 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
             remaining.discard(tear)
     if len(tears) != len(out_res):
         # tearing did not come out square (should not happen for a matched block): keep it whole
-        return BlockSolution([], list(variables), list(residuals))
+        return BlockSolution([], list(variables), list(residuals), list(range(n)))
     if linear and tears:
         # block elimination: the torn residuals are linear in the tearing variables; solve that
         # small system symbolically and substitute back into the sequentially solved variables
@@ -100,5 +102,5 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
         t_sol = ca.solve(a, -b)
         back = ca.substitute(ca.vertcat(*[e for _, e in solved]), t_vec, t_sol) if solved else []
         return BlockSolution([(v, back[k]) for k, (v, _) in enumerate(solved)]
-                             + [(v, t_sol[k]) for k, v in enumerate(tears)], [], [])
-    return BlockSolution(solved, tears, out_res)
+                             + [(v, t_sol[k]) for k, v in enumerate(tears)], [], [], [])
+    return BlockSolution(solved, tears, out_res, rows)

@@ -18,7 +18,7 @@ import numpy as np
 
 from .declarations import Across, Declaration, Input, Param, Port, Through, Tunable, Variable
 from .equation import Eq, register, time
-from .errors import ParameterError
+from .errors import ParameterError, StructureError
 
 
 @dataclass
@@ -171,11 +171,16 @@ class Component:
     def _vector(label, key, what, value, shape):
         if value is None:
             return None
-        arr = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
+        try:
+            arr = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
+        except (TypeError, ValueError):
+            raise ParameterError(f"{label}: {key}_{what} = {value!r} is not a number") from None
         if arr.size == 1 and shape > 1:
             arr = np.full(shape, arr[0])
         if arr.size != shape or not np.all(np.isfinite(arr)):
             raise ParameterError(f"{label}: {key}_{what} = {value!r} must be {shape} finite number(s)")
+        if what == "nominal" and not np.all(arr > 0):
+            raise ParameterError(f"{label}: {key}_nominal = {value!r} must be > 0 (it scales the tolerance)")
         return arr
 
     def _unknown_arguments(self, label: str, unknown: list) -> str:
@@ -236,12 +241,28 @@ class Component:
     def residuals(self) -> list[tuple[int, int, ca.SX, str]]:
         """Scalar residuals as (equation number, element or None for a scalar equation, expression, doc)."""
         out = []
-        equations = list(self.equations())
+        label = f"{self.path} ({type(self).__name__})"
+        produced = self.equations()
+        if produced is None or isinstance(produced, (str, bytes)) or not hasattr(produced, "__iter__"):
+            raise StructureError(f"{label}: equations() must return a list of Eq(...), got {produced!r} "
+                                 f"(a missing return statement?)")
+        equations = list(produced)
         for key, sig in self.signals.items():
             equations.append(Eq(self._values[key], sig.expr(time), f"{key} driven by {sig!r}"))
         for k, eq in enumerate(equations):
             doc = eq.doc if isinstance(eq, Eq) else ""
-            res = eq.residual() if isinstance(eq, Eq) else ca.SX(eq)
+            try:
+                res = eq.residual() if isinstance(eq, Eq) else ca.SX(eq)
+            except (NotImplementedError, TypeError, ValueError, RuntimeError):
+                raise StructureError(f"{label}, equation {k + 1}: {eq!r} is not an equation; write "
+                                     f"Eq(lhs, rhs) with numbers and variables (not `==`, not strings)") from None
+            if res.is_scalar() and not res.is_constant() and not res.is_symbolic() and any(
+                    res.is_op(op) for op in (ca.OP_EQ, ca.OP_NE, ca.OP_LE, ca.OP_LT)):
+                raise StructureError(f"{label}, equation {k + 1}: {eq!r} is a comparison, not an equation; "
+                                     f"write Eq(lhs, rhs) instead of `lhs == rhs`")
+            if isinstance(eq, bool) or res.is_constant():
+                raise StructureError(f"{label}, equation {k + 1}: {eq!r} contains no variable "
+                                     f"(did you write `==` instead of Eq(lhs, rhs)?)")
             res = ca.reshape(res, -1, 1)
             for i in range(res.numel()):
                 out.append((k + 1, i if res.numel() > 1 else None, res[i], doc))

@@ -15,6 +15,13 @@ from .component import Component, Connector, _check_name
 from .errors import ConnectError, FrozenModelError, NameConflictError
 
 
+def _type_label(connector) -> str:
+    """'rotational.Flange' for library connectors, 'module.Class' for user-defined ones."""
+    parts = type(connector).__module__.split(".")
+    domain = parts[-2] if len(parts) >= 2 and parts[0] == "mechnet" else parts[-1]
+    return f"{domain}.{type(connector).__name__}"
+
+
 class Model:
     """A scene under construction; `compile()` freezes it."""
 
@@ -39,6 +46,9 @@ class Model:
         if not isinstance(item, (Component, Model)):
             raise ConnectError(f"model {self.name!r}: add() takes a component or a Model, got {item!r}")
         self._check_open(f"add {item.name!r}")
+        if isinstance(item, Model) and (item is self or item._contains_model(self)):
+            raise ConnectError(f"model {self.name!r}: cannot add {item.name!r}: a model cannot contain itself "
+                               f"(directly or through its subsystems)")
         if item.name in self._items:
             other = self._items[item.name]
             raise NameConflictError(f"model {self.name!r}: a component named {item.name!r} already exists "
@@ -78,15 +88,17 @@ class Model:
         if a is b:
             raise ConnectError(f"connector {a.label} cannot be connected to itself")
         if type(a) is not type(b):
-            raise ConnectError(f"cannot connect {a.label} ({type(a).__module__.split('.')[-2]}."
-                               f"{type(a).__name__}) to {b.label} ({type(b).__module__.split('.')[-2]}."
-                               f"{type(b).__name__}): connectors must be of the same type")
+            raise ConnectError(f"cannot connect {a.label} ({_type_label(a)}) to {b.label} ({_type_label(b)}): "
+                               f"connectors must be of the same type")
         self.graph.add_edge(a, b)
 
     def expose(self, name: str, connector: Connector) -> Connector:
         """Make an inner connector reachable as `subsystem.<name>` from the parent model."""
         self._check_open("expose")
         _check_name(name, f"model {self.name!r}")
+        if not isinstance(connector, Connector):
+            raise ConnectError(f"model {self.name!r}: expose({name!r}, ...) takes a connector such as "
+                               f"inertia.flange_a, got {connector!r}")
         if not self.owns(connector.owner):
             raise ConnectError(f"model {self.name!r}: cannot expose {connector.label}: not part of this model")
         self._exposed[name] = connector
@@ -102,6 +114,12 @@ class Model:
         raise AttributeError(f"model {self.__dict__.get('name')!r} has no component or exposed connector {key!r}")
 
     # ---- queries ----------------------------------------------------------------------------
+
+    def _contains_model(self, other: "Model") -> bool:
+        for item in self._items.values():
+            if isinstance(item, Model) and (item is other or item._contains_model(other)):
+                return True
+        return False
 
     def owns(self, component) -> bool:
         for item in self._items.values():

@@ -107,9 +107,9 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
             if ca.depends_on(expr, w[j]):
                 g.add_edge(("r", k), ("w", j))
     match = bipartite.hopcroft_karp_matching(g, top_nodes=left)
-    unmatched = [k for k in range(len(conditions)) if ("r", k) not in match]
+    unmatched = [k for k in range(len(rows_expr)) if ("r", k) not in match]
     if unmatched:
-        _too_many(conditions, unmatched, match, dae, w)
+        _too_many(conditions, unmatched, g, dae)
     matched_w = {match[("r", k)][1] for k in range(len(rows_expr)) if ("r", k) in match}
     free = [j for j in range(nx_) if j not in matched_w]
     # 3. free states take their guess
@@ -123,33 +123,45 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
         return InitialPoint(np.zeros(0), np.zeros(0), [c[0] for c in conditions], [], 0.0)
     residual = ca.Function("init_residual", [w], [res_expr])
     sol, r = _newton(residual, w0)
-    worst = int(np.argmax(np.abs(r))) if r.size else 0
-    if r.size and not (np.all(np.isfinite(r)) and abs(r[worst]) < 1e-8 * (1.0 + np.max(np.abs(sol)))):
+    tol = 1e-8 * (1.0 + np.max(np.abs(sol), initial=0.0))
+    if r.size and not (np.all(np.isfinite(r)) and np.max(np.abs(r)) < tol):
+        alg_labels = dae.info.get("alg_labels", ())
         labels = [f"start value {c[0]} = {c[2]:g}" for c in conditions] + \
-                 [f"algebraic equation {k}" for k in range(nz)]
-        raise InitializationError(f"consistent initialisation failed: the largest residual is "
-                                  f"{r[worst]:.3g} in {labels[worst]}; check the start values and guesses")
+                 [alg_labels[k] if k < len(alg_labels) else f"algebraic equation {k}" for k in range(nz)]
+        bad = np.flatnonzero(~(np.abs(r) < tol))
+        worst = max(bad, key=lambda k: (k >= len(conditions), abs(r[k]) if np.isfinite(r[k]) else np.inf))
+        fixed = ", ".join(f"{c[0]} = {c[2]:g}" for c in conditions) or "none"
+        raise InitializationError(f"consistent initialisation failed: no solution found for {labels[worst]} "
+                                  f"(residual {r[worst]:.3g}) with the fixed values {fixed}; "
+                                  f"check the start values and guesses")
     fixed = [c[0] for c in conditions[: len(conditions) - len(free)]]
     return InitialPoint(sol[:nx_], sol[nx_:], fixed, [names_w[j] for j in free],
                         float(np.max(np.abs(r))) if r.size else 0.0)
 
 
-def _too_many(conditions, unmatched, match, dae, w):
+def _too_many(conditions, unmatched, graph, dae):
+    """Name each surplus fixed value with everything it competes with (its connected part of the graph)."""
+    alg_labels = dae.info.get("alg_labels", ())
     names_w = list(dae.x_names) + list(dae.z_names)
+
+    def row_label(k):
+        if k < len(conditions):
+            return f"{conditions[k][0]} = {conditions[k][2]:g}"
+        j = k - len(conditions)
+        return alg_labels[j] if j < len(alg_labels) else f"algebraic equation {j}"
+
     lines = []
     for k in unmatched:
-        name, expr, value = conditions[k]
-        rivals = []
-        for j in range(w.numel()):
-            if ca.depends_on(expr, w[j]):
-                for (side, other), (_, jj) in match.items():
-                    if side == "r" and jj == j and other < len(conditions):
-                        rivals.append(f"{conditions[other][0]} = {conditions[other][2]:g}")
-                rivals.append(f"state {names_w[j]}")
-        lines.append(f"    {name} = {value:g} competes with {', '.join(dict.fromkeys(rivals))}")
-    raise InitializationError("too many fixed start values: the model has fewer states than fixed values "
-                              "for them; remove one of each group (or make it a guess with *_guess=):\n"
-                              + "\n".join(lines))
+        part = nx.node_connected_component(graph, ("r", k))
+        rows = sorted(r for side, r in part if side == "r")
+        fixed = [row_label(r) for r in rows if r < len(conditions)]
+        eqs = [row_label(r) for r in rows if r >= len(conditions)]
+        unknowns = sorted(names_w[j] for side, j in part if side == "w")
+        lines.append(f"    fixed values {', '.join(fixed)} compete for {', '.join(unknowns)}"
+                     + (f" (related by {'; '.join(eqs)})" if eqs else ""))
+    raise InitializationError("too many fixed start values: more values are fixed than the model has "
+                              "free quantities for them; remove one of each group (or make it a guess "
+                              "with *_guess=):\n" + "\n".join(lines))
 
 
 def solve_algebraic(dae, t: float, x: np.ndarray, z_guess: np.ndarray, u: np.ndarray, p: np.ndarray,

@@ -1,0 +1,109 @@
+"""Start values that cannot all hold: InitializationError naming the start values involved."""
+import re
+
+import pytest
+
+import mechnet as mn
+from mechnet.components import rotational as rot
+
+
+@pytest.fixture(scope="module")
+def cm():
+    """f (housing) -- s (spring c = 10) -- j1 (J = 1, phi_start = 0.5)."""
+    m = mn.Model("osc")
+    j = m.add(rot.Inertia(name="j1", J=1.0, phi_start=0.5, w_start=0.0))
+    s = m.add(rot.Spring(name="s", c=10.0))
+    f = m.add(rot.Fixed(name="f"))
+    m.connect(f.flange, s.flange_a)
+    m.connect(s.flange_b, j.flange_a)
+    return m.compile()
+
+
+@pytest.mark.parametrize("alias", ["j1.flange_a.phi", "j1.flange_b.phi", "s.flange_b.phi"])
+def test_aliases_of_one_state_with_different_start_values(cm, alias):
+    """phi_start = 0.5 on j1 and 0.7 on a flange rigidly attached to it."""
+    with pytest.raises(mn.InitializationError) as info:
+        cm.simulate(0.1, n_out=3, start={alias: 0.7})
+    text = str(info.value)
+    assert re.search(r"\bj1\.phi\b", text) and alias in text, text
+    assert "0.5" in text and "0.7" in text, "both values are shown"
+
+
+def test_aliases_with_equal_start_values_are_accepted(cm):
+    """Guard for the test above: agreeing start values on aliases are not a conflict."""
+    res = cm.simulate(0.1, n_out=3, start={"j1.flange_a.phi": 0.5})
+    assert res["j1.phi"][0] == pytest.approx(0.5)
+
+
+def test_start_values_related_through_an_equation(cm):
+    """s.tau = c·j1.phi, so s.tau = 3 asks for j1.phi = 0.3 while j1.phi = 0.1 is also fixed."""
+    with pytest.raises(mn.InitializationError) as info:
+        cm.simulate(0.1, n_out=3, start={"j1.phi": 0.1, "s.tau": 3.0})
+    text = str(info.value)
+    assert "j1.phi" in text and "s.tau" in text, text
+
+
+@pytest.mark.parametrize("name", ["f.flange.phi", "s.flange_a.phi"])
+def test_start_value_on_a_quantity_the_model_fixes(cm, name):
+    """f.flange.phi = 0 always (Fixed); so is everything rigidly attached to it."""
+    quoted = re.escape(name)
+    with pytest.raises(mn.InitializationError, match=rf"{quoted} = 0\.2 cannot hold.*fixes {quoted} = 0\b"):
+        cm.simulate(0.1, n_out=3, start={name: 0.2})
+
+
+def test_start_value_on_a_fixed_quantity_that_agrees_is_accepted(cm):
+    res = cm.simulate(0.1, n_out=3, start={"f.flange.phi": 0.0})
+    assert res["f.flange.phi"][0] == 0.0
+
+
+def test_start_value_that_is_nan(cm):
+    with pytest.raises(mn.InitializationError, match=r"j1\.phi = nan"):
+        cm.simulate(0.1, n_out=3, start={"j1.phi": float("nan")})
+
+
+# ---- models with algebraic variables ---------------------------------------------------------
+
+class Loop(mn.Component):
+    """z + z³ = x (stays an algebraic loop), der(x) = -z: one state, one algebraic."""
+
+    x = mn.State(start=1.0)
+    z = mn.Var(doc="loop variable")
+
+    def equations(self):
+        return [mn.Eq(self.z + self.z ** 3, self.x, "nonlinear loop"),
+                mn.Eq(mn.der(self.x), -self.z, "decay")]
+
+
+class NoRealRoot(mn.Component):
+    """z² = x − 2 has no real solution while x < 2."""
+
+    x = mn.State(start=1.0)
+    z = mn.Var(start=1.0)
+
+    def equations(self):
+        return [mn.Eq(self.z ** 2, self.x - 2.0, "no real root for x < 2"),
+                mn.Eq(mn.der(self.x), -self.z, "decay")]
+
+
+def test_start_values_for_a_state_and_its_algebraic():
+    """One state, two fixed start values that z + z³ = x ties together (2 ≠ 5 + 125): name both."""
+    m = mn.Model("loop")
+    m.add(Loop(name="l"))
+    cm = m.compile()
+    assert cm.algebraic_names == ("l.z",)
+    with pytest.raises(mn.InitializationError) as info:
+        cm.simulate(0.1, n_out=3, start={"l.x": 2.0, "l.z": 5.0})
+    text = str(info.value)
+    assert re.search(r"\bl\.x = 2\b", text) and re.search(r"\bl\.z = 5\b", text), text
+
+
+def test_no_consistent_algebraic_values():
+    """x_start = 1 leaves z² = −1: name the start value and the equation it contradicts."""
+    m = mn.Model("noroot")
+    m.add(NoRealRoot(name="c", x_start=1.0))
+    cm = m.compile()
+    with pytest.raises(mn.InitializationError) as info:
+        cm.simulate(0.1, n_out=3)
+    text = str(info.value)
+    assert "c.x = 1" in text, text
+    assert "c (NoRealRoot), equation 1" in text, text
