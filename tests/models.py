@@ -30,3 +30,31 @@ def inertia_chain(n=20, J=0.01, c=1e3, d=0.0, phi_last=1.0, name="chain") -> mn.
         m.connect(element.flange_b, inertia.flange_a)
         previous = inertia.flange_b
     return m
+
+
+class CartesianPendulum(mn.Component):
+    """Point mass on a massless rod, written as raw equations in x, y and the multiplier lam (index 3)."""
+
+    m = mn.Param(1.0, unit="kg", check=mn.positive)
+    L = mn.Param(1.0, unit="m", check=mn.positive)
+    g = mn.Param(9.81, unit="m/s^2")
+    x = mn.State(unit="m", priority="default")
+    y = mn.State(unit="m", priority="default")
+    vx = mn.State(unit="m/s", priority="default")
+    vy = mn.State(unit="m/s", priority="default")
+    lam = mn.Var(unit="N/m", doc="rod force per unit length (Lagrange multiplier)")
+
+    def equations(self):
+        return [mn.Eq(mn.der(self.x), self.vx), mn.Eq(mn.der(self.y), self.vy),
+                mn.Eq(self.m * mn.der(self.vx), -self.lam * self.x),
+                mn.Eq(self.m * mn.der(self.vy), -self.lam * self.y - self.m * self.g),
+                mn.Eq(self.x**2 + self.y**2, self.L**2, "rod length")]
+
+
+def cartesian_pendulum(theta0=0.5, L=1.0, **kw) -> mn.Model:
+    import math
+
+    m = mn.Model("pendulum")
+    m.add(CartesianPendulum(name="p", L=L, x_start=L * math.sin(theta0), y_guess=-L * math.cos(theta0),
+                            vx_start=0.0, **kw))
+    return m

@@ -37,6 +37,8 @@ class FlatEquation:
     origin: str               # component path, or "connection"
     label: str                # "j1 (Inertia), equation 4" / "connection {a.flange, b.flange}: phi equal"
     doc: str = ""
+    order: int = 0            # how often index reduction differentiated it (0: as written)
+    smoothness: float = float("inf")   # how often its signals may be differentiated
 
     def describe(self) -> str:
         return f"{self.label}" + (f" — {self.doc}" if self.doc else "")

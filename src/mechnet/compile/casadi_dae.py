@@ -53,7 +53,8 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
                                   ca.vertcat(*[value[i] for i in used]))
             residuals.append(r)
         if options.tearing:
-            sol = solve_block(residuals, block_vars, symbols, param_hashes)
+            guarded = any(flat.equations[e].order > 0 for e in block)
+            sol = solve_block(residuals, block_vars, symbols, param_hashes, guarded)
         else:
             from .tearing import BlockSolution
             sol = BlockSolution([], list(block_vars), residuals, list(range(len(block))))

@@ -13,10 +13,29 @@ class CompiledModel:
         self.timings = timings
         self.options = options
         self._integrators: dict = {}
+        self._selections: dict = {}
 
     @property
     def dae(self) -> SemiExplicitDAE:
         return self.stages["dae"]
+
+    @property
+    def selection_factory(self):
+        """Re-chooses states at another point (None when index reduction chose none)."""
+        index = self.stages.get("index")
+        return getattr(index, "factory", None) if index is not None else None
+
+    def selection(self, dummies: frozenset) -> SemiExplicitDAE:
+        """The compiled model for another choice of dummy derivatives (cached)."""
+        from .casadi_dae import emit
+        from .structure import analyze_structure
+
+        if dummies not in self._selections:
+            flat = self.selection_factory.build(dummies)
+            structure = analyze_structure(flat, self.options.structure)
+            self._selections[dummies] = emit(self.stages["flat"], flat, self.stages["aliases"], structure,
+                                             self.options.emit)
+        return self._selections[dummies]
 
     @property
     def n_states(self) -> int:
@@ -87,3 +106,13 @@ class CompiledModel:
 
     def __repr__(self):
         return f"<CompiledModel {self.name}: {self.n_states} states, {len(self.algebraic_names)} algebraics>"
+
+    def linearize(self, x_op=None, u_op=None, **kw):
+        """Linear model (A, B, C, D) about an operating point; see `mechnet.linear.linearize`."""
+        from ..linear import linearize
+        return linearize(self, x_op, u_op, **kw)
+
+    def trim(self, **kw):
+        """Steady state (or the inputs that hold one); see `mechnet.linear.trim`."""
+        from ..linear import trim
+        return trim(self, **kw)

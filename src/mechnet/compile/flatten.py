@@ -80,9 +80,10 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
 
     for comp in components:
         label = f"{comp.path} ({type(comp).__name__})"
-        for number, element, residual, doc in comp.residuals():
+        for number, element, residual, doc, smooth in comp.residuals():
             suffix = f"[{element}]" if element is not None else ""
-            equations.append(FlatEquation(residual, comp.path, f"{label}, equation {number}{suffix}", doc))
+            equations.append(FlatEquation(residual, comp.path, f"{label}, equation {number}{suffix}", doc,
+                                          smoothness=smooth))
 
     equations.extend(connection_equations(model.connection_graph()))
 

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from .alias import SimplifyOptions, simplify
 from .casadi_dae import EmitOptions, emit
 from .flatten import FlattenOptions, flatten
+from .index_reduction import IndexReductionOptions, reduce_index
 from .structure import StructureOptions, analyze_structure
 
 
@@ -17,6 +18,7 @@ from .structure import StructureOptions, analyze_structure
 class CompileOptions:
     flatten: FlattenOptions = field(default_factory=FlattenOptions)
     simplify: SimplifyOptions = field(default_factory=SimplifyOptions)
+    reduce: IndexReductionOptions = field(default_factory=IndexReductionOptions)
     structure: StructureOptions = field(default_factory=StructureOptions)
     emit: EmitOptions = field(default_factory=EmitOptions)
 
@@ -33,11 +35,15 @@ def compile_model(model, options: CompileOptions | None = None):
     simplified, aliases = simplify(flat, options.simplify)
     timings["simplify"] = _time.perf_counter() - t0
     t0 = _time.perf_counter()
-    structure = analyze_structure(simplified, options.structure)
+    reduced, index = reduce_index(simplified, options.reduce)
+    timings["reduce"] = _time.perf_counter() - t0
+    t0 = _time.perf_counter()
+    structure = analyze_structure(reduced, options.structure)
     timings["analyze"] = _time.perf_counter() - t0
     t0 = _time.perf_counter()
-    dae = emit(flat, simplified, aliases, structure, options.emit)
+    dae = emit(flat, reduced, aliases, structure, options.emit)
     timings["emit"] = _time.perf_counter() - t0
     model.freeze()
-    stages = {"flat": flat, "simplified": simplified, "aliases": aliases, "structure": structure, "dae": dae}
+    stages = {"flat": flat, "simplified": simplified, "aliases": aliases, "reduced": reduced, "index": index,
+              "structure": structure, "dae": dae}
     return CompiledModel(model.name, stages, timings, options)

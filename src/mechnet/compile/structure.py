@@ -128,7 +128,7 @@ def _raise_unbalanced(flat, unknowns, incidence, matching):
         raise HigherIndexError(
             f"{header}, but these equations constrain variables that are states "
             f"({', '.join(states)}), so the model has index > 1 and needs index reduction "
-            f"(Pantelides / dummy derivatives, not available yet):\n{_listing(eq_lines)}\n"
+            f"(Pantelides / dummy derivatives; switched off by CompileOptions.reduce):\n{_listing(eq_lines)}\n"
             f"Typical causes: a prescribed motion or a rigid coupling between two masses or inertias "
             f"that are not directly connected.")
     parts = [header + "."]

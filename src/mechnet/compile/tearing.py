@@ -42,13 +42,23 @@ def solve_linear_for(residual: ca.SX, var: ca.SX, parameter_hashes: set):
     return -rest / coef
 
 
-def solve_block(residuals: list, variables: list, symbols: list, parameter_hashes: set) -> BlockSolution:
-    """Solve residuals (already in known terms) for variables (indices; symbols[i] their SX)."""
+def solve_block(residuals: list, variables: list, symbols: list, parameter_hashes: set,
+                guarded: bool = False) -> BlockSolution:
+    """Solve residuals (already in known terms) for variables (indices; symbols[i] their SX).
+
+    `guarded`: the block holds differentiated constraints, whose regularity the
+    dummy-derivative selection guarantees (and the simulator monitors), so a
+    block linear in its unknowns is solved whatever its coefficients depend on.
+    """
     n = len(variables)
     vec = ca.vertcat(*[symbols[v] for v in variables])
     linear = False
+    jac = ca.jacobian(ca.vertcat(*residuals), vec)
+    if guarded and not ca.depends_on(jac, vec):
+        rhs = -ca.substitute(ca.vertcat(*residuals), vec, ca.DM.zeros(n))
+        sol = rhs / jac if n == 1 else ca.solve(jac, rhs)
+        return BlockSolution([(v, sol[k]) for k, v in enumerate(variables)], [], [], [])
     if n > 1:
-        jac = ca.jacobian(ca.vertcat(*residuals), vec)
         linear = not ca.depends_on(jac, vec) and all(s.element_hash() in parameter_hashes for s in ca.symvar(jac))
     unknown = {symbols[v].element_hash(): v for v in variables}
     pending = list(range(n))

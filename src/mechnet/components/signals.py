@@ -27,7 +27,14 @@ def _number(owner: str, name: str, value) -> float:
 
 
 class Signal:
-    """Base class: `expr(time)` gives the value, `events()` the times of jumps and kinks."""
+    """Base class: `expr(time)` gives the value, `events()` the times of jumps and kinks.
+
+    `smoothness` is how many times the signal may be differentiated with a
+    bounded result (a step: 0, a ramp or table: 1, a sine: unlimited); index
+    reduction refuses to differentiate a prescribed motion more often.
+    """
+
+    smoothness = float("inf")
 
     def expr(self, time: ca.SX) -> ca.SX:
         raise NotImplementedError
@@ -58,6 +65,8 @@ class Constant(Signal):
 class Step(Signal):
     """y = offset before start_time, offset + height from start_time on."""
 
+    smoothness = 0
+
     def __init__(self, height: float = 1.0, *, offset: float = 0.0, start_time: float = 0.0):
         self.height = _number("Step", "height", height)
         self.offset = _number("Step", "offset", offset)
@@ -75,6 +84,8 @@ class Step(Signal):
 
 class Ramp(Signal):
     """Rises linearly by `height` over `duration` from start_time, then holds."""
+
+    smoothness = 1
 
     def __init__(self, height: float = 1.0, duration: float = 1.0, *, offset: float = 0.0,
                  start_time: float = 0.0):
@@ -98,6 +109,10 @@ class Ramp(Signal):
 
 class Sine(Signal):
     """y = offset + amplitude·sin(2π·f·(t − start_time) + phase) from start_time on (offset before)."""
+
+    @property
+    def smoothness(self):
+        return float("inf") if self.start_time <= 0.0 else 0
 
     def __init__(self, amplitude: float = 1.0, f: float = 1.0, *, phase: float = 0.0, offset: float = 0.0,
                  start_time: float = 0.0):
@@ -126,6 +141,8 @@ class Table(Signal):
     Written as a sum of slope changes, so the expression stays symbolic and
     differentiable between knots; every interior knot is a time event.
     """
+
+    smoothness = 1
 
     def __init__(self, times, values):
         t = np.asarray(times, dtype=float).ravel()

@@ -239,7 +239,7 @@ class Component:
                 for t in sig.events()]
 
     def residuals(self) -> list[tuple[int, int, ca.SX, str]]:
-        """Scalar residuals as (equation number, element or None for a scalar equation, expression, doc)."""
+        """Scalar residuals: (equation number, element or None if scalar, expression, doc, smoothness)."""
         out = []
         label = f"{self.path} ({type(self).__name__})"
         produced = self.equations()
@@ -247,8 +247,10 @@ class Component:
             raise StructureError(f"{label}: equations() must return a list of Eq(...), got {produced!r} "
                                  f"(a missing return statement?)")
         equations = list(produced)
+        smooth = [float("inf")] * len(equations)
         for key, sig in self.signals.items():
             equations.append(Eq(self._values[key], sig.expr(time), f"{key} driven by {sig!r}"))
+            smooth.append(float(getattr(sig, "smoothness", float("inf"))))
         for k, eq in enumerate(equations):
             doc = eq.doc if isinstance(eq, Eq) else ""
             try:
@@ -265,7 +267,7 @@ class Component:
                                      f"(did you write `==` instead of Eq(lhs, rhs)?)")
             res = ca.reshape(res, -1, 1)
             for i in range(res.numel()):
-                out.append((k + 1, i if res.numel() > 1 else None, res[i], doc))
+                out.append((k + 1, i if res.numel() > 1 else None, res[i], doc, smooth[k]))
         return out
 
     def __repr__(self):

@@ -61,7 +61,7 @@ class _Integrators:
         self.cm, self.dae, self.plugin, self.extra = cm, dae, plugin, extra
         self.rtol, self.atol, self.max_steps = rtol, atol, max_steps
         self.inputs = inputs
-        self.base_key = (plugin, tuple(sorted(extra.items())), rtol, atol, max_steps, inputs.key())
+        self.base_key = (id(dae), plugin, tuple(sorted(extra.items())), rtol, atol, max_steps, inputs.key())
 
     def get(self, tau: tuple):
         key = self.base_key + (tau,)
@@ -139,10 +139,23 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     stats["wall_time"] = _time.perf_counter() - wall
     stats["method"], stats["plugin"] = method, plugin
     T = np.array(run.T)
-    X = np.array(run.X).reshape(len(T), -1)
-    Z = np.array(run.Z).reshape(len(T), -1)
-    values = _observe(dae, T, X, Z, plan, p, d)
-    result = Result(T, values, dae.observed_names, dae.units, stats, X, Z, dae.x_names,
+    values = np.empty((T.size, len(dae.observed_names)))
+    k = 0
+    while k < T.size:                      # rows integrated with the same selection, observed together
+        j = k
+        while j + 1 < T.size and run.D[j + 1] is run.D[k]:
+            j += 1
+        sel = run.D[k]
+        X = np.array(run.X[k: j + 1]).reshape(j + 1 - k, -1)
+        Z = np.array(run.Z[k: j + 1]).reshape(j + 1 - k, -1)
+        values[k: j + 1] = _observe(sel, T[k: j + 1], X, Z, plan, p, d)
+        k = j + 1
+    column = {n: c for c, n in enumerate(dae.observed_names)}
+    final = run.D[-1] if run.D else dae
+    X = values[:, [column[n] for n in final.x_names if n in column]] \
+        if all(n in column for n in final.x_names) else np.array(run.X)
+    Z = np.zeros((T.size, 0))
+    result = Result(T, values, dae.observed_names, dae.units, stats, X, Z, final.x_names,
                     events=run.events, failure=run.failure,
                     initial={"fixed": init.fixed, "free_states": init.free_states, "residual": init.residual})
     if run.failure is not None:
@@ -176,31 +189,45 @@ class _Run:
     """The segment loop: integrate between boundaries, restart at events, stop at a failure."""
 
     def __init__(self, cm, dae, plugin, extra, rtol, atol, max_steps, plan, p, d, init):
-        self.dae, self.plan, self.p, self.d = dae, plan, p, d
-        self.integrators = _Integrators(cm, dae, plugin, extra, rtol, atol, max_steps, plan)
-        self.xn = np.array(dae.x_nominal, dtype=float)
-        self.zn = np.array(dae.z_nominal, dtype=float)
-        self.T, self.X, self.Z = [], [], []
+        self.cm, self.plan, self.p, self.d = cm, plan, p, d
+        self.settings = (plugin, extra, rtol, atol, max_steps)
+        self._use(dae)
+        self.T, self.X, self.Z, self.D = [], [], [], []
         self.events: list[Event] = []
         self.failure = None
         self.stats = {"nsteps": 0, "nfevals": 0, "netfails": 0, "segments": 0}
         self.x, self.z = init.x.copy(), init.z.copy()
 
+    def _use(self, dae):
+        plugin, extra, rtol, atol, max_steps = self.settings
+        self.dae = dae
+        self.integrators = _Integrators(self.cm, dae, plugin, extra, rtol, atol, max_steps, self.plan)
+        self.xn = np.array(dae.x_nominal, dtype=float)
+        self.zn = np.array(dae.z_nominal, dtype=float)
+
+    def _record(self, t):
+        self.T.append(t)
+        self.X.append(self.x.copy())
+        self.Z.append(self.z.copy())
+        self.D.append(self.dae)
+
     def pvec(self, t0, h):
         return np.concatenate([self.plan.constant, self.p, self.d, [t0, h]])
 
     def integrate(self, grid, events, progress):
-        self.T.append(grid[0])
-        self.X.append(self.x.copy())
-        self.Z.append(self.z.copy())
+        self.monitor = _SelectionMonitor.create(self.cm, self.dae)
+        if self.monitor is not None:
+            self._reselect(grid[0])
+        self._record(grid[0])
         if self.dae.x.numel() == 0:
             for t in grid[1:]:
                 self.z = solve_algebraic(self.dae, t, self.x, self.z, self._u_at(t), self.p, self.d)
-                self.T.append(t)
-                self.X.append(self.x.copy())
-                self.Z.append(self.z.copy())
+                self._record(t)
             return
         event_at = {t: cause for t, cause in events}
+        if self.monitor is not None:
+            self._integrate_monitored(grid, event_at)
+            return
         cuts = sorted({int(np.searchsorted(grid, t)) for t in event_at}
                       | set(chunk_bounds(grid.size, PROGRESS_CHUNKS if grid.size >= PROGRESS_MIN_POINTS else 1)))
         bounds = [0] + [c for c in cuts if 0 < c < grid.size - 1] + [grid.size - 1]
@@ -253,6 +280,7 @@ class _Run:
         self.T.extend(points[1:])
         self.X.extend(xf)
         self.Z.extend(zf)
+        self.D.extend([self.dae] * len(xf))
         self.x, self.z = xf[-1].copy(), zf[-1].copy()
         s = F.stats()
         for k in ("nsteps", "nfevals", "netfails"):
@@ -260,6 +288,126 @@ class _Run:
         self.stats["segments"] += 1
         self.stats["hlast"] = float(s.get("hlast", float("nan"))) * h
         return True, ""
+
+    def _integrate_monitored(self, grid, event_at):
+        """Integrate long pieces with dense monitor points, switching states where a block degrades.
+
+        The integrator reports the solution at extra monitor points inside each
+        piece (interpolated, no restart). After the piece, the conditioning of
+        the running selection is evaluated at every monitor point; at the
+        first point where a better selection wins by the hysteresis factor, the
+        piece is cut, the states are re-chosen and the integrator restarts —
+        re-initialised — there (a "reselection" event). Monitor density adapts
+        so the conditioning ratio moves by at most ~0.1 between points; a piece
+        covers a twentieth of the run, so restarts stay few.
+        """
+        n_int = grid.size - 1
+        longest = max(1, n_int // 20)
+        per_piece = 1
+        density = 4                                   # monitor points per output interval
+        t_cur, k = grid[0], 0                         # current time; next output index is k + 1
+        while k < n_int:
+            k_end = min(k + per_piece, n_int)
+            for j in range(k + 1, k_end + 1):
+                if grid[j] in event_at:
+                    k_end = j
+                    break
+            spans = [(t_cur, grid[k + 1])] + [(grid[j], grid[j + 1]) for j in range(k + 1, k_end)]
+            pts = [t_cur]
+            is_output = [False]
+            for a, b in spans:
+                pts.extend(np.linspace(a, b, density + 1)[1:])
+                is_output.extend([False] * (density - 1) + [True])
+            pts = np.array(pts)
+            ok, message, xs, zs = self._dense(pts)
+            if not ok and per_piece > 1:
+                per_piece //= 2                       # maybe a switch was due inside: look closer
+                continue
+            if not ok:
+                self._recover(np.concatenate([[t_cur], grid[k + 1: k_end + 1]]), message)
+                return
+            ratios, switch_at = self._ratios(pts, xs, zs)
+            stop = switch_at if switch_at is not None else len(pts) - 1
+            for m in range(1, stop + 1):
+                if is_output[m]:
+                    self.x, self.z = xs[m], zs[m]
+                    self._record(pts[m])
+            self.x, self.z = xs[stop].copy(), zs[stop].copy()
+            t_cur = pts[stop]
+            k = int(np.searchsorted(grid, t_cur, side="right")) - 1
+            if t_cur == grid[k] and k > 0 and grid[k] in event_at:
+                self._restart_at(grid[k], event_at[grid[k]])
+            if switch_at is not None:
+                self._reselect(t_cur)
+                # a switch cut the piece: what came after it was wasted, so aim shorter next time
+                per_piece = max(1, min(per_piece, int(np.ceil((stop / density) * 1.5))))
+            else:
+                per_piece = min(longest, 2 * per_piece)
+            steps = np.abs(np.diff(ratios[: stop + 1])) if stop > 0 else np.zeros(1)
+            worst = float(np.max(steps)) if steps.size else 0.0
+            if worst > 0.1 and density < 256:
+                density *= 2
+            elif worst < 0.02 and density > 1:
+                density //= 2
+
+    def _dense(self, pts):
+        """One integrator call over pts (unrecorded); returns the states at every point."""
+        t0, h = pts[0], pts[-1] - pts[0]
+        tau = tuple(float(v) for v in np.round((pts[1:] - t0) / h, 14))
+        F = self.integrators.get(tau)
+        try:
+            out = F(x0=self.x / self.xn, z0=self.z / self.zn if self.zn.size else np.zeros(0),
+                    p=self.pvec(t0, h))
+        except RuntimeError as exc:
+            return False, str(exc), None, None
+        s = F.stats()
+        for key in ("nsteps", "nfevals", "netfails"):
+            self.stats[key] += int(s.get(key, 0))
+        self.stats["segments"] += 1
+        self.stats["hlast"] = float(s.get("hlast", float("nan"))) * h
+        xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn
+        zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn) if self.zn.size \
+            else np.zeros((xf.shape[0], 0))
+        return True, "", np.vstack([self.x, xf]), np.vstack([self.z.reshape(1, -1), zf])
+
+    def _ratios(self, pts, xs, zs):
+        """Conditioning ratio (running / best selection) at each point, and the first point to switch at."""
+        n = pts.size
+        U = np.column_stack([self._u_at(t) for t in pts]) if self.plan.varying else \
+            np.tile(self.plan.constant.reshape(-1, 1), n)
+        Y = np.asarray(self.dae.observed.map(n)(pts.reshape(1, -1), xs.T, zs.T, U,
+                                                np.tile(self.p.reshape(-1, 1), n),
+                                                np.tile(self.d.reshape(-1, 1), n))).T
+        ratios = np.ones(n)
+        for m in range(n):
+            ratio, switch = self.monitor.better(Y[m], probe=True)
+            ratios[m] = 1.0 if ratio is None else ratio
+            if switch and m > 0:
+                return ratios[: m + 1], m
+        return ratios, None
+
+    def _reselect(self, t):
+        """Switch to a better state selection when the running one degrades (hysteresis factor 2).
+
+        Returns the quality ratio (running / best) after the check.
+        """
+        u = self._u_at(t)
+        values = np.asarray(self.dae.observed(t, self.x, self.z, u, self.p, self.d)).ravel()
+        ratio, switch = self.monitor.better(values)
+        if switch is None:
+            return ratio
+        dummies, new_dae, cause = switch
+        named = dict(zip(self.dae.observed_names, values))
+        x_new = np.array([named.get(n, 0.0) for n in new_dae.x_names])
+        z_guess = np.array([named.get(n, 0.0) for n in new_dae.z_names])
+        self._use(new_dae)
+        self.x = x_new
+        self.z = solve_algebraic(new_dae, t, x_new, z_guess, u, self.p, self.d)
+        self.monitor.current = dummies
+        self.events.append(Event(float(t), "reselection", cause))
+        if self.T and self.T[-1] == t:
+            self.X[-1], self.Z[-1], self.D[-1] = self.x.copy(), self.z.copy(), new_dae
+        return 1.0
 
     def _restart_at(self, t, cause):
         """A time event: states are continuous; algebraic variables are re-solved at the new time."""
@@ -311,6 +459,57 @@ class _Run:
             f"worst variable: {worst}; solver: {solver}. The result holds the solution up to t = {t_good:.6g} s",
             t=float(t_good), step=step, worst=worst, solver_message=solver)
         self.stats["failed_at"] = float(t_good)
+
+
+class _SelectionMonitor:
+    """Watches the conditioning of the dependent block and proposes a better selection."""
+
+    HYSTERESIS = 0.5
+
+    def __init__(self, cm, factory, current):
+        self.cm, self.factory, self.current = cm, factory, current
+        self.names = factory.names
+
+    @classmethod
+    def create(cls, cm, dae):
+        factory = cm.selection_factory
+        if factory is None:
+            return None
+        index = cm.stages["index"]
+        if not any(len(level.candidates) > len(level.chosen) for level in index.levels):
+            return None
+        current = frozenset(factory.names.index(n) for n in index.dummies)
+        if dae is not cm.dae:
+            current = next((k for k, v in cm._selections.items() if v is dae), current)
+        return cls(cm, factory, current)
+
+    def better(self, observed_values, probe=False):
+        """(ratio, switch): switch is None, or (dummies, compiled selection, cause); probing only says True."""
+        dae = self.cm.dae
+        named = dict(zip(dae.observed_names, observed_values))
+        values = np.array([named.get(n, 0.0) for n in self.names])
+        try:
+            best, levels = self.factory.choose(values)
+        except MechnetError:
+            return None, None
+        if best == self.current:
+            return 1.0, None
+        q_now = self.factory.quality(self.factory.levels_for(self.current), values)
+        q_best = self.factory.quality(levels, values)
+        ratio = q_now / q_best if q_best > 0 else 1.0
+        if ratio >= self.HYSTERESIS:
+            return ratio, None
+        if probe:
+            return ratio, True
+        old = _state_names(self.factory, self.current)
+        new = _state_names(self.factory, best)
+        cause = (f"dependent block conditioning {q_now:.2g} vs {q_best:.2g}: states "
+                 f"{', '.join(old)} -> {', '.join(new)}")
+        return ratio, (best, self.cm.selection(best), cause)
+
+
+def _state_names(factory, dummies) -> list:
+    return sorted(factory.names[i] for i, j in factory.graph.der.items() if j not in dummies)
 
 
 def _observe(dae, T, X, Z, plan, p, d) -> np.ndarray:

@@ -40,7 +40,7 @@ def cm():
 
 
 def test_every_stage_artifact_is_kept(cm):
-    assert set(cm.stages) == {"flat", "simplified", "aliases", "structure", "dae"}
+    assert set(cm.stages) == {"flat", "simplified", "aliases", "reduced", "index", "structure", "dae"}
     kinds = {"flat": FlatSystem, "simplified": FlatSystem, "aliases": AliasMap,
              "structure": StructureReport, "dae": SemiExplicitDAE}
     for key, kind in kinds.items():

@@ -1,7 +1,7 @@
-"""Rotational elements: inertia, spring, damper, spring–damper, fixed flange."""
+"""Rotational elements: inertia, spring, damper, spring–damper, fixed flange, ideal gear."""
 from __future__ import annotations
 
-from ...core.declarations import Param, State, Var, nonnegative, positive
+from ...core.declarations import Param, State, Var, nonnegative, nonzero, positive
 from ...core.equation import Eq, der
 from .interfaces import PartialCompliant, PartialOneFlange, PartialTwoFlanges
 
@@ -71,3 +71,21 @@ class Fixed(PartialOneFlange):
 
     def equations(self):
         return [Eq(self.flange.phi, self.phi0, "flange is fixed")]
+
+
+class IdealGear(PartialTwoFlanges):
+    """Ideal gear without inertia, elasticity, backlash or losses (Modelica convention).
+
+    phi_a = ratio·phi_b and 0 = ratio·flange_a.tau + flange_b.tau, so flange_a
+    turns `ratio` times as far as flange_b and the power flowing in at flange_a
+    leaves at flange_b. The angle relation is a rigid constraint between the
+    connected elements: attached to inertias on both sides it is resolved by
+    index reduction (one of the two inertias' coordinates becomes dependent),
+    and the inertia on flange_b appears at flange_a as J_b / ratio².
+    """
+
+    ratio = Param(unit="1", doc="transmission ratio phi_a / phi_b (non-zero)", check=nonzero)
+
+    def equations(self):
+        return [Eq(self.flange_a.phi, self.ratio * self.flange_b.phi, "gear kinematics: phi_a = ratio·phi_b"),
+                Eq(self.ratio * self.flange_a.tau + self.flange_b.tau, 0.0, "power balance of a lossless gear")]

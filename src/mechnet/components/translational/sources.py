@@ -1,8 +1,14 @@
-"""Force sources. A source drives its flange with +f: flange.f = −f (cut force into the source)."""
+"""Force sources and prescribed-motion sources.
+
+A force source drives its flange with +f: flange.f = −f (cut force into the
+source). A motion source (Position, Speed, Accelerate) imposes the motion of
+its flange and takes whatever force that needs: flange.f is the cut force into
+the source, so the force it exerts on the driven side is −flange.f.
+"""
 from __future__ import annotations
 
-from ...core.declarations import Input, Param
-from ...core.equation import Eq
+from ...core.declarations import Input, Param, State, Var
+from ...core.equation import Eq, der
 from .interfaces import PartialOneFlange
 
 
@@ -38,3 +44,52 @@ class Position(PartialOneFlange):
 
     def equations(self):
         return [Eq(self.flange.s, self.s_ref, "the flange follows s_ref")]
+
+
+class Speed(PartialOneFlange):
+    """Prescribed velocity: der(flange.s) = v_ref (an input, or a signal).
+
+    `s` is the flange position (`s_start=` fixes it when nothing else does).
+    flange.f is the cut force into the source (Modelica convention), so the
+    force the source exerts on what it drives is −flange.f.
+
+    Through a compliant element this is an ordinary equation. Attached rigidly
+    to a mass it fixes that mass's velocity: index reduction differentiates
+    this equation and the signal behind v_ref (through `time`) once, for the
+    acceleration. A Table or Ramp signal can be differentiated once only
+    (enough here), a Step never, a Sine (starting at t = 0) any number of
+    times; an external input not at all. When the signal is not smooth
+    enough, compilation raises `StructureError` naming this source or its input.
+    """
+
+    v_ref = Input(unit="m/s", doc="prescribed velocity of the flange")
+    s = Var(unit="m", doc="absolute position of the flange")
+
+    def equations(self):
+        return [Eq(self.s, self.flange.s, "the source position is the flange position"),
+                Eq(der(self.s), self.v_ref, "the flange moves at v_ref")]
+
+
+class Accelerate(PartialOneFlange):
+    """Prescribed acceleration: der(s) = v, der(v) = a_ref, flange.s = s.
+
+    s and v are states of the source (`s_start=`, `v_start=` fix them); a_ref is
+    an input or a signal. flange.f is the cut force into the source (Modelica
+    convention), so the force the source exerts is −flange.f.
+
+    Attached rigidly to a mass, the mass's position and velocity coincide with
+    the source's states; index reduction resolves this constraint by making one
+    copy dependent (fix start values on one side only). a_ref itself is never
+    differentiated, so any signal serves, even a Step (a Table or Ramp signal
+    can be differentiated once only, a Step never, a Sine any number of times —
+    which matters for the Position and Speed sources).
+    """
+
+    a_ref = Input(unit="m/s^2", doc="prescribed acceleration of the flange")
+    s = State(unit="m", doc="absolute position of the flange")
+    v = State(unit="m/s", doc="absolute velocity of the flange")
+
+    def equations(self):
+        return [Eq(self.flange.s, self.s, "the flange follows the source position"),
+                Eq(der(self.s), self.v, "velocity"),
+                Eq(der(self.v), self.a_ref, "the flange accelerates at a_ref")]

@@ -1,0 +1,357 @@
+"""Reduce: Pantelides' algorithm, symbolic differentiation and dummy-derivative state selection.
+
+Constraints among states (rigid couplings, gears, prescribed motion, loop
+closures, user constraints) make the DAE higher-index. Pantelides finds, on
+the integer incidence structure, which equations to differentiate and how
+often; CasADi differentiates them (total time derivative by the chain rule).
+The dummy-derivative method (Mattsson & Söderlind) then turns as many
+derivatives into algebraic "dummies" as there are differentiated equations,
+level by level: state priority first, then the conditioning of the
+constraint Jacobian at the start point. The original constraints stay in the
+system, so the dependent coordinates are solved from them and do not drift.
+The choice is kept as data (`IndexReport.levels`) so that a simulator can
+re-pivot when the chosen block becomes ill-conditioned.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import casadi as ca
+import numpy as np
+
+from ..core.errors import StructureError
+from .artifacts import FlatEquation, FlatSystem, FlatVariable
+
+_DUMMY_PREFERENCE = {"never": 0, "avoid": 1, "default": 2, "prefer": 3}
+
+
+@dataclass(frozen=True)
+class IndexReductionOptions:
+    method: str = "dummy_derivatives"     # "dummy_derivatives" or "none"
+    rank_tolerance: float = 1e-10
+
+
+@dataclass(frozen=True)
+class SelectionLevel:
+    """One level of the dummy-derivative choice: equations, candidate derivatives, the chosen ones."""
+
+    equations: tuple          # equation indices (in the reduced FlatSystem)
+    candidates: tuple         # variable indices
+    chosen: tuple             # variable indices that became dummy derivatives
+
+
+@dataclass(frozen=True)
+class IndexReport:
+    differentiated: tuple     # (equation label, times differentiated)
+    index: int                # structural index (max differentiations + 1; 1 or less without constraints)
+    dummies: tuple            # names of dummy derivatives
+    levels: tuple             # SelectionLevel, highest level first
+    states: tuple             # names of the selected states
+    factory: object = None    # SelectionFactory: re-choose and rebuild at another point
+
+    def summary(self) -> str:
+        if not self.differentiated:
+            return "reduce: no constraint among states, nothing differentiated"
+        diffs = ", ".join(f"{label} ×{n}" for label, n in self.differentiated)
+        return (f"reduce: structural index {self.index}; differentiated {diffs}; "
+                f"dummy derivatives {', '.join(self.dummies)}")
+
+
+class _Graph:
+    """The integer structure Pantelides works on, growing as it differentiates."""
+
+    def __init__(self, flat: FlatSystem):
+        self.kind = [v.kind for v in flat.variables]
+        self.der = {i: j for i, (j, _) in flat.der_of.items() if j is not None}
+        self.antider = {j: i for i, j in self.der.items()}
+        index = {v.symbol.element_hash(): i for i, v in enumerate(flat.variables)}
+        self.inc = [sorted({index[s.element_hash()] for s in ca.symvar(eq.residual)
+                            if s.element_hash() in index}) for eq in flat.equations]
+        self.diff = {}            # equation -> its derivative equation
+        self.parent = {}          # derivative equation -> the equation it was differentiated from
+        self.assign = {}          # variable -> equation matched to it
+
+    def visible(self, v) -> bool:
+        return self.kind[v] != "input" and v not in self.der
+
+    def new_variable(self, of: int) -> int:
+        j = len(self.kind)
+        self.kind.append("derivative")
+        self.der[of] = j
+        self.antider[j] = of
+        return j
+
+    def differentiate(self, e: int) -> int:
+        for v in self.inc[e]:
+            if self.kind[v] != "input" and v not in self.der:
+                self.new_variable(v)
+        k = len(self.inc)
+        self.inc.append(sorted(set(self.inc[e]) | {self.der[v] for v in self.inc[e] if v in self.der}))
+        self.diff[e] = k
+        self.parent[k] = e
+        return k
+
+    def augment(self, e, coloured_e, coloured_v) -> bool:
+        coloured_e.add(e)
+        for v in self.inc[e]:
+            if self.visible(v) and v not in self.assign:
+                self.assign[v] = e
+                return True
+        for v in self.inc[e]:
+            if self.visible(v) and v not in coloured_v:
+                coloured_v.add(v)
+                if self.augment(self.assign[v], coloured_e, coloured_v):
+                    self.assign[v] = e
+                    return True
+        return False
+
+    def pantelides(self, n_equations: int, max_rounds: int):
+        for k in range(n_equations):
+            i = k
+            rounds = 0
+            while True:
+                coloured_e, coloured_v = set(), set()
+                if self.augment(i, coloured_e, coloured_v):
+                    break
+                rounds += 1
+                if rounds > max_rounds:
+                    return False
+                for v in coloured_v:
+                    if v not in self.der:
+                        self.new_variable(v)
+                for e in coloured_e:
+                    self.differentiate(e)
+                for v in coloured_v:
+                    self.assign[self.der[v]] = self.diff[self.assign[v]]
+                i = self.diff[i]
+        return True
+
+
+def _order(graph: _Graph, e: int) -> int:
+    n = 0
+    while e in graph.parent:
+        e = graph.parent[e]
+        n += 1
+    return n
+
+
+def reduce_index(flat: FlatSystem, options: IndexReductionOptions = IndexReductionOptions()
+                 ) -> tuple[FlatSystem, IndexReport]:
+    graph = _Graph(flat)
+    n_eq0 = len(flat.equations)
+    if options.method == "none":
+        return flat, IndexReport((), 1, (), (), tuple(flat.variables[i].name for i in sorted(flat.der_of)))
+    unchanged = (flat, IndexReport((), 1, (), (), tuple(flat.variables[i].name for i in sorted(flat.der_of))))
+    if len(flat.unknowns()) != n_eq0:
+        return unchanged              # unbalanced: the structure stage names the culprits
+    if not graph.pantelides(n_eq0, max_rounds=len(flat.variables) + 2):
+        return unchanged              # structurally singular: the structure stage names the culprits
+    if not graph.parent:
+        return flat, IndexReport((), 1, (), (), tuple(flat.variables[i].name for i in sorted(flat.der_of)))
+
+    variables = list(flat.variables)
+    symbols = [v.symbol for v in variables]
+    for j in range(len(variables), len(graph.kind)):
+        base = variables[graph.antider[j]]
+        sym = ca.SX.sym(f"der({base.name})")
+        variables.append(FlatVariable(name=f"der({base.name})", symbol=sym, kind="derivative",
+                                      unit=f"({base.unit})/s", nominal=base.nominal, priority=base.priority,
+                                      origin=base.origin, component_type=base.component_type))
+        symbols.append(sym)
+    derivative_expr = {}
+    for i, j in graph.der.items():
+        if i in flat.der_of:
+            jj, sign = flat.der_of[i]
+            derivative_expr[i] = sign * symbols[jj] if jj is not None else ca.SX(sign)
+        else:
+            derivative_expr[i] = symbols[j]
+    for i, (jj, c) in flat.der_of.items():
+        if jj is None:
+            derivative_expr[i] = ca.SX(c)
+
+    equations = list(flat.equations)
+    for k in range(n_eq0, len(graph.inc)):
+        parent = graph.parent[k]
+        source = equations[parent]
+        order = _order(graph, k)
+        if order > source.smoothness:
+            raise StructureError(
+                f"{source.describe()} would have to be differentiated {order} time(s) for index reduction, "
+                f"but its signal is smooth only to order {source.smoothness:g}: a prescribed motion needs a "
+                f"signal with continuous derivatives (e.g. Sine, or a smoother profile) when it drives an "
+                f"element rigidly")
+        equations.append(_differentiate(source, flat, graph, parent, symbols, derivative_expr, order))
+
+    factory = SelectionFactory(flat, graph, variables, equations, symbols, options)
+    dummies, levels = factory.choose(_start_values(flat, variables))
+    reduced = factory.build(dummies)
+    counts = {}
+    for k in graph.parent:
+        root = k
+        while root in graph.parent:
+            root = graph.parent[root]
+        counts[root] = max(counts.get(root, 0), _order(graph, k))
+    report = IndexReport(tuple((flat.equations[e].describe(), n) for e, n in sorted(counts.items())),
+                         max(counts.values()) + 1, tuple(variables[d].name for d in sorted(dummies)),
+                         tuple(levels), tuple(reduced.variables[i].name for i in sorted(reduced.der_of)),
+                         factory)
+    return reduced, report
+
+
+class SelectionFactory:
+    """Redoes the dummy-derivative choice at any point and builds the system for a choice.
+
+    The simulator asks `choose(values)` at accepted points; when the best choice
+    differs from the running one by a clear margin (`quality`), it switches to
+    `build(dummies)` compiled by the later stages.
+    """
+
+    def __init__(self, flat, graph, variables, equations, symbols, options):
+        self.flat, self.graph, self.options = flat, graph, options
+        self.variables, self.equations, self.symbols = variables, equations, symbols
+        self.names = [v.name for v in variables]
+        all_syms = ca.vertcat(*symbols)
+        params = ca.vertcat(*[p.symbol for p in flat.parameters]) if flat.parameters else ca.SX(0, 1)
+        self._pvals = [p.value for p in flat.parameters]
+        self._args = (all_syms, flat.time, params)
+        self._jacobians = {}
+
+    def jacobian(self, rows: tuple, cols: tuple, values) -> np.ndarray:
+        key = (rows, cols)
+        if key not in self._jacobians:
+            jac = ca.jacobian(ca.vertcat(*[self.equations[e].residual for e in rows]),
+                              ca.vertcat(*[self.symbols[v] for v in cols]))
+            self._jacobians[key] = ca.Function("dd_jacobian", list(self._args), [jac])
+        return np.asarray(self._jacobians[key](values, 0.0, self._pvals), dtype=float)
+
+    def base_priority(self, v) -> int:
+        while v in self.graph.antider:
+            v = self.graph.antider[v]
+        return _DUMMY_PREFERENCE.get(self.variables[v].priority, 2)
+
+    def choose(self, values):
+        """Mattsson–Söderlind, highest level first; columns by state priority, then numerically."""
+        graph, equations = self.graph, self.equations
+        top = [e for e in range(len(equations)) if e not in graph.diff]
+        h = [e for e in top if e in graph.parent]
+        candidates = [v for v in range(len(self.variables)) if graph.visible(v) and v in graph.antider]
+        dummies, levels = set(), []
+        while h:
+            cand = [v for v in candidates if any(v in graph.inc[e] for e in h)]
+            if len(cand) < len(h):
+                raise StructureError(_no_selection(h, equations))
+            J = self.jacobian(tuple(h), tuple(cand), values)
+            chosen = _pick_columns(J, cand, len(h), self.base_priority, self.options.rank_tolerance)
+            if chosen is None:
+                raise StructureError(_no_selection(h, equations))
+            dummies.update(chosen)
+            levels.append(SelectionLevel(tuple(h), tuple(cand), tuple(chosen)))
+            below = [graph.parent[e] for e in h]
+            h = [e for e in below if e in graph.parent]
+            candidates = [graph.antider[v] for v in chosen if graph.antider[v] in graph.antider]
+        return frozenset(dummies), levels
+
+    def quality(self, levels, values) -> float:
+        """|det| of the chosen columns over the Hadamard bound of all candidate rows: 1 ideal, 0 singular."""
+        q = 1.0
+        for level in levels:
+            J = self.jacobian(tuple(level.equations), tuple(level.candidates), values)
+            rows = np.linalg.norm(J, axis=1)
+            if np.any(rows == 0) or len(level.chosen) != J.shape[0]:
+                return 0.0
+            cols = [level.candidates.index(v) for v in level.chosen]
+            q *= abs(np.linalg.det(J[:, cols])) / float(np.prod(rows))
+        return q
+
+    def levels_for(self, dummies):
+        """The levels of a given dummy set, walked like `choose` but with the picks given."""
+        graph = self.graph
+        h = [e for e in range(len(self.equations)) if e not in graph.diff and e in graph.parent]
+        candidates = [v for v in range(len(self.variables)) if graph.visible(v) and v in graph.antider]
+        levels = []
+        while h:
+            cand = [v for v in candidates if any(v in graph.inc[e] for e in h)]
+            chosen = [v for v in cand if v in dummies]
+            levels.append(SelectionLevel(tuple(h), tuple(cand), tuple(chosen)))
+            h = [graph.parent[e] for e in h if graph.parent[e] in graph.parent]
+            candidates = [graph.antider[v] for v in chosen if graph.antider[v] in graph.antider]
+        return levels
+
+    def build(self, dummies) -> FlatSystem:
+        der_of = {}
+        for i, j in self.graph.der.items():
+            if j in dummies:
+                continue
+            der_of[i] = self.flat.der_of[i] if i in self.flat.der_of else (j, 1.0)
+        for i, (jj, c) in self.flat.der_of.items():
+            if jj is None:
+                der_of[i] = (None, c)
+        return replace(self.flat, variables=tuple(self.variables), equations=tuple(self.equations),
+                       der_of=der_of, stage="reduce")
+
+
+def _differentiate(source: FlatEquation, flat, graph, parent, symbols, derivative_expr, order) -> FlatEquation:
+    r = source.residual
+    vs, ds = [flat.time], [ca.SX(1.0)]
+    for v in graph.inc[parent]:
+        if graph.kind[v] == "input":
+            if ca.depends_on(r, symbols[v]):
+                raise StructureError(
+                    f"{source.describe()} would have to be differentiated for index reduction, but it "
+                    f"contains the external input {flat.variables[v].name}, whose derivative is unknown; "
+                    f"drive it with a smooth signal (mechnet.components.signals) instead")
+            continue
+        vs.append(symbols[v])
+        ds.append(derivative_expr[v])
+    dr = ca.jtimes(r, ca.vertcat(*vs), ca.vertcat(*ds))
+    label = f"d/dt {source.label}" if order == 1 else f"d{order}/dt{order} {source.label.split('d/dt ', 1)[-1]}"
+    base = source
+    return FlatEquation(dr, source.origin, label, source.doc, order=order,
+                        smoothness=base.smoothness)
+
+
+def _start_values(flat: FlatSystem, variables) -> np.ndarray:
+    out = []
+    for v in variables:
+        if v.start is not None:
+            out.append(v.start)
+        elif v.guess is not None:
+            out.append(v.guess)
+        else:
+            out.append(v.default_start)
+    return np.array(out, dtype=float)
+
+
+def _pick_columns(J, cand, m, priority, tol):
+    """Greedy pivoted Gram–Schmidt: dummy-preferred variables first, then the largest remaining column."""
+    scale = max(np.max(np.abs(J)) if J.size else 0.0, 1e-300)
+    basis = []
+    chosen = []
+    groups = sorted({priority(v) for v in cand})
+    for g in groups:
+        while len(chosen) < m:
+            best, best_norm, best_vec = None, tol * scale, None
+            for k, v in enumerate(cand):
+                if priority(v) != g or v in chosen:
+                    continue
+                col = J[:, k].copy()
+                for b in basis:
+                    col -= b * (b @ col)
+                norm = float(np.linalg.norm(col))
+                if norm > best_norm * (1 + 1e-9):
+                    best, best_norm, best_vec = v, norm, col
+            if best is None:
+                break
+            chosen.append(best)
+            basis.append(best_vec / best_norm)
+        if len(chosen) == m:
+            return chosen
+    return None if len(chosen) < m else chosen
+
+
+def _no_selection(h, equations) -> str:
+    names = "\n".join(f"    {equations[e].describe()}" for e in h)
+    return ("no consistent choice of states: the differentiated constraints are singular at the start "
+            "point (conflicting or redundant constraints, or a prescribed motion fighting a constraint):\n"
+            + names)
+
