@@ -60,11 +60,6 @@ def test_ideal_gear_reflects_inertia_by_ratio_squared():
     assert np.max(np.abs(RATIO * res["gear.flange_a.tau"] + res["gear.flange_b.tau"])) < 1e-12
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "simulate/integrator.py: when a selection monitor is active (the gear level has two candidate "
-    "dummies, j1.w or j2.w) _integrate_monitored restarts the integrator at every output point, and the "
-    "restarts accumulate error: 5.4e-7 at rtol = atol = 1e-10 with 501 outputs (4.5e-9 with 5 outputs; "
-    "3.3e-10 for the equivalent single inertia, which integrates in one segment)"))
 def test_ideal_gear_parabola_accuracy():
     # phi_a = phi0 + w0 t + a t^2/2 with a = tau / (J1 + J2/ratio^2); rtol = atol = 1e-10,
     # horizon 2 s, scale 11 rad: < 1e-8 (the same bound test_rotational holds a single inertia to).
@@ -278,11 +273,6 @@ def test_accelerate_drives_a_rigid_inertia_with_an_external_input(domain):
     assert np.max(np.abs(res[cut] + inertia * a)) < 1e-12
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "signals.py Table.expr: the derivative through `time` at a knot comes from CasADi's tie rule for "
-    "fmax/fmin (weight 1/2 each), so at t = t[0] the differentiated table gives slope/4 (two nested ties) "
-    "instead of the right-hand slope the simulation starts on; at interior knots it gives the mean of the "
-    "two one-sided slopes"))
 def test_rigid_speed_source_force_at_start_is_the_right_hand_limit():
     # The run starts at the first knot: the force the source exerts is m·(right-hand slope) = 3·2 = 6 N.
     m = mn.Model("conveyor")

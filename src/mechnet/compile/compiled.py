@@ -97,12 +97,20 @@ class CompiledModel:
             f"  structure: {len(st.blocks)} BLT blocks, largest {max((len(b) for b in st.blocks), default=0)}; "
             f"{d.info['solved']} solved symbolically, {d.info['torn']} torn; "
             f"{d.info['observed_only']} only observed (pruned from ode/alg)",
-            f"  index: {1 if not d.is_ode else 0} (no index reduction needed)",
+            self._index_line(),
             f"  effects: {effects or '-'}",
             f"  cost: {d.ode.n_instructions()} instructions in ode, {d.alg.n_instructions()} in alg",
             "  compile time: " + ", ".join(f"{k} {v * 1e3:.1f} ms" for k, v in self.timings.items()),
         ]
         return "\n".join(lines)
+
+    def _index_line(self) -> str:
+        index = self.stages.get("index")
+        if index is None or not index.differentiated:
+            return f"  index: {0 if self.dae.is_ode else 1} (no index reduction needed)"
+        diffs = "; ".join(f"{label} ×{n}" for label, n in index.differentiated)
+        return (f"  index: structural index {index.index} reduced; differentiated {diffs}; "
+                f"dummy derivatives {', '.join(index.dummies)}")
 
     def __repr__(self):
         return f"<CompiledModel {self.name}: {self.n_states} states, {len(self.algebraic_names)} algebraics>"

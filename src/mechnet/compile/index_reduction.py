@@ -224,6 +224,22 @@ class SelectionFactory:
             self._jacobians[key] = ca.Function("dd_jacobian", list(self._args), [jac])
         return np.asarray(self._jacobians[key](values, 0.0, self._pvals), dtype=float)
 
+    def can_degrade(self) -> bool:
+        """False when every selection Jacobian is constant (a gear): the choice never needs revisiting."""
+        graph = self.graph
+        h = [e for e in range(len(self.equations)) if e not in graph.diff and e in graph.parent]
+        rows = set()
+        while h:
+            rows.update(h)
+            h = [graph.parent[e] for e in h if graph.parent[e] in graph.parent]
+        for e in rows:
+            cand = [self.symbols[v] for v in graph.inc[e] if v in graph.antider or v in graph.der]
+            if cand:
+                jac = ca.jacobian(self.equations[e].residual, ca.vertcat(*cand))
+                if ca.depends_on(jac, self._args[0]):
+                    return True
+        return False
+
     def base_priority(self, v) -> int:
         while v in self.graph.antider:
             v = self.graph.antider[v]

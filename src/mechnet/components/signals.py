@@ -26,6 +26,15 @@ def _number(owner: str, name: str, value) -> float:
     return number
 
 
+def _clamp(value, lo, hi):
+    """lo <= value <= hi, differentiated as the right-hand limit at the corners.
+
+    Time events restart the integrator exactly at a corner, and from there on
+    the right-hand slope is the one that holds (fmin/fmax would give the mean).
+    """
+    return ca.if_else(value < lo, lo, ca.if_else(value >= hi, hi, value))
+
+
 class Signal:
     """Base class: `expr(time)` gives the value, `events()` the times of jumps and kinks.
 
@@ -97,7 +106,7 @@ class Ramp(Signal):
         self.start_time = _number("Ramp", "start_time", start_time)
 
     def expr(self, time):
-        tau = ca.fmin(ca.fmax(time - self.start_time, 0.0), self.duration)
+        tau = _clamp(time - self.start_time, 0.0, self.duration)
         return self.offset + self.height * tau / self.duration
 
     def events(self):
@@ -161,13 +170,13 @@ class Table(Signal):
 
     def expr(self, time):
         t, y = self.times, self.values
-        clamped = ca.fmin(ca.fmax(time, t[0]), t[-1])
+        clamped = _clamp(time, t[0], t[-1])
         slopes = np.diff(y) / np.diff(t)
         changes = np.diff(np.concatenate([[0.0], slopes]))
         out = ca.SX(y[0])
         for tk, dk in zip(t[:-1], changes):
             if dk != 0.0:
-                out = out + dk * ca.fmax(clamped - tk, 0.0)
+                out = out + dk * ca.if_else(clamped >= tk, clamped - tk, 0.0)
         return out
 
     def events(self):

@@ -478,6 +478,8 @@ class _SelectionMonitor:
         index = cm.stages["index"]
         if not any(len(level.candidates) > len(level.chosen) for level in index.levels):
             return None
+        if not factory.can_degrade():
+            return None
         current = frozenset(factory.names.index(n) for n in index.dummies)
         if dae is not cm.dae:
             current = next((k for k, v in cm._selections.items() if v is dae), current)
