@@ -58,3 +58,24 @@ def cartesian_pendulum(theta0=0.5, L=1.0, **kw) -> mn.Model:
     m.add(CartesianPendulum(name="p", L=L, x_start=L * math.sin(theta0), y_guess=-L * math.cos(theta0),
                             vx_start=0.0, **kw))
     return m
+
+
+class BouncingBall(mn.Component):
+    """A ball falling under gravity, reflected with restitution e at h = 0 (a state event)."""
+
+    e = mn.Param(0.8, check=mn.positive, doc="coefficient of restitution")
+    g = mn.Param(9.81, unit="m/s^2")
+    h = mn.State(unit="m", doc="height")
+    v = mn.State(unit="m/s", doc="upward speed")
+
+    def equations(self):
+        return [mn.Eq(mn.der(self.h), self.v), mn.Eq(mn.der(self.v), -self.g)]
+
+    def events(self):
+        return [mn.When(self.h, reset={self.v: -self.e * self.v}, direction="falling", doc="impact")]
+
+
+def bouncing_ball(h0=1.0, e=0.8) -> mn.Model:
+    m = mn.Model("ball")
+    m.add(BouncingBall(name="b", e=e, h_start=h0, v_start=0.0))
+    return m

@@ -1,7 +1,7 @@
 """mechnet: acausal mechanical modelling on CasADi."""
 from .compile import CompiledModel, CompileOptions
 from .core import (Across, Component, Connector, Eq, Input, Model, Output, Param, Port, State, Through, Var,
-                   der, nonnegative, positive, time, tunable)
+                   When, der, nonnegative, positive, time, tunable)
 from .core.errors import (ConnectError, FrozenModelError, HigherIndexError, InitializationError,
                           IntegrationError, InputError, MechnetError, NameConflictError, ParameterError, SceneError,
                           StructureError, UnbalancedModelError, UnknownNameError)

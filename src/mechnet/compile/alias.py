@@ -207,7 +207,32 @@ def simplify(flat: FlatSystem, options: SimplifyOptions = SimplifyOptions()) -> 
         else:
             n_alias += 1
     equations = tuple(replace(eq, residual=residuals[e]) for e, eq in enumerate(flat.equations) if active[e])
+    zero_crossings = _map_zero_crossings(flat, classes, symbols, new_index)
     reduced = FlatSystem(flat.name, variables, equations, flat.parameters, der_of, flat.time,
                          flat.effects, stage="simplify", time_events=flat.time_events,
-                         folded_parameters=flat.folded_parameters)
+                         folded_parameters=flat.folded_parameters, zero_crossings=zero_crossings)
     return reduced, AliasMap(expressions, n_alias, n_const, removed + (len(flat.equations) - len(equations) - removed))
+
+
+def _map_zero_crossings(flat, classes, symbols, new_index):
+    """Conditions and resets in terms of the surviving variables (a reset of an alias resets its representative)."""
+    if not flat.zero_crossings:
+        return ()
+    elim = [i for i in range(len(symbols)) if classes.find(i)[0] != i or i in classes.const]
+    olds = ca.vertcat(*[symbols[i] for i in elim]) if elim else None
+    news = ca.vertcat(*[classes.expression(i, symbols) for i in elim]) if elim else None
+
+    def sub(expr):
+        return ca.substitute(expr, olds, news) if olds is not None else expr
+
+    out = []
+    for zc in flat.zero_crossings:
+        resets = []
+        for i, value in zc.resets:
+            r, sign = classes.find(i)
+            if r in classes.const:
+                raise StructureError(f"{zc.label}: resets {flat.variables[i].name}, which the model fixes "
+                                     f"to a constant")
+            resets.append((new_index[r], sign * sub(value)))
+        out.append(replace(zc, g=sub(zc.g), resets=tuple(resets)))
+    return tuple(out)

@@ -45,6 +45,16 @@ class FlatEquation:
 
 
 @dataclass(frozen=True)
+class ZeroCrossing:
+    """g(...) crossing zero in `direction` (−1, 0, +1) triggers `resets`: (variable index, new value)."""
+
+    g: ca.SX
+    resets: tuple
+    direction: int
+    label: str
+
+
+@dataclass(frozen=True)
 class Parameter:
     name: str
     symbol: ca.SX
@@ -71,6 +81,7 @@ class FlatSystem:
     stage: str = "flatten"
     time_events: tuple = ()       # (time, cause): where a signal jumps or kinks
     folded_parameters: tuple = ()  # names of parameters folded into the equations as numbers
+    zero_crossings: tuple = ()    # ZeroCrossing: state events declared with When
 
     def index_of(self) -> dict[str, int]:
         return {v.name: i for i, v in enumerate(self.variables)}
@@ -172,6 +183,8 @@ class SemiExplicitDAE:
     p_value: tuple
     d_value: tuple
     time_events: tuple = ()      # (time, cause), sorted
+    zero_labels: tuple = ()      # what each zero crossing is, for Result.events
+    zero_directions: tuple = ()  # −1 falling, +1 rising, 0 both
     info: dict = field(default_factory=dict)
 
     @property

@@ -109,7 +109,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     ode = _fn("ode", args, ode_expr, "xdot")
     algf = _fn("alg", args, alg_expr, "res")
     observed = _fn("observed", args, obs, "y")
-    zero = _fn("zero", args, ca.SX(0, 1), "g")
+    zero, transitions = _events(flat, x_index, symbols, sub_from, sub_to, current, args, x)
     invariants = _fn("invariants", args, ca.SX(0, 1), "c")
     x_names = tuple(variables[i].name for i in x_index)
     z_names = tuple(variables[i].name for i in z_index)
@@ -128,7 +128,9 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
         u_names=tuple(variables[i].name for i in u_index),
         p_names=tuple(q.name for q in flat.parameters), d_names=(),
         ode=ode, alg=algf, observed=observed, observed_names=tuple(names),
-        zero=zero, transition=(), invariants=invariants, invariant_names=(),
+        zero=zero, transition=transitions, invariants=invariants, invariant_names=(),
+        zero_labels=tuple(zc.label for zc in flat.zero_crossings),
+        zero_directions=tuple(zc.direction for zc in flat.zero_crossings),
         selections=(Selection(x_names, z_names, ode, algf, observed),),
         x_nominal=tuple(variables[i].nominal for i in x_index),
         z_nominal=tuple(variables[i].nominal for i in z_index),
@@ -154,3 +156,35 @@ def _count_observed_only(value, depends, flat, z_index, original) -> int:
     survivors = {v.name for v in flat.variables}
     eliminated_outputs = sum(1 for v in original.variables if v.kind == "output" and v.name not in survivors)
     return sum(1 for i in value if i not in needed) + eliminated_outputs
+
+
+def _events(flat, x_index, symbols, sub_from, sub_to, current, args, x):
+    """zero(t,x,z,u,p,d) stacks the conditions; transition[i] maps the state to its value after event i."""
+    if not flat.zero_crossings:
+        return _fn("zero", args, ca.SX(0, 1), "g"), ()
+    position = {s.element_hash(): i for i, s in enumerate(symbols)}
+    solved_now = {}
+
+    def in_base(expr):
+        used = [position[s.element_hash()] for s in ca.symvar(expr) if s.element_hash() in position]
+        subs = [(symbols[i], current(i)) for i in used if current(i) is not symbols[i]]
+        if subs:
+            expr = ca.substitute(expr, ca.vertcat(*[a for a, _ in subs]), ca.vertcat(*[b for _, b in subs]))
+        return expr
+
+    _ = (sub_from, sub_to, solved_now)
+    g = ca.vertcat(*[in_base(zc.g) for zc in flat.zero_crossings])
+    state_pos = {i: k for k, i in enumerate(x_index)}
+    transitions = []
+    for n, zc in enumerate(flat.zero_crossings):
+        x_plus = [x[k] for k in range(x.numel())]
+        for i, value in zc.resets:
+            if i not in state_pos:
+                from ..core.errors import StructureError
+                raise StructureError(f"{zc.label}: resets {flat.variables[i].name}, which is not a state of the "
+                                     f"compiled model (it is computed from other variables); reset a state "
+                                     f"({', '.join(flat.variables[j].name for j in x_index)})")
+            x_plus[state_pos[i]] = in_base(value)
+        out = ca.vertcat(*x_plus) if x_plus else ca.SX(0, 1)
+        transitions.append(ca.Function(f"transition_{n}", list(args), [out, args[5]], list(ARGS), ["x_plus", "d_plus"]))
+    return _fn("zero", args, g, "g"), tuple(transitions)

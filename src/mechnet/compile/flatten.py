@@ -15,7 +15,7 @@ from ..core.declarations import Across, Input, Output, State, Through
 from ..core.equation import derivative_parent, time
 from ..core.errors import StructureError
 from ..core.model import Model
-from .artifacts import FlatEquation, FlatSystem, FlatVariable, Parameter
+from .artifacts import FlatEquation, FlatSystem, FlatVariable, Parameter, ZeroCrossing
 from .connections import connection_equations
 
 
@@ -78,8 +78,11 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
             if key not in comp.tunable:
                 folded.append(f"{comp.path}.{key}")
 
+    whens = []
     for comp in components:
         label = f"{comp.path} ({type(comp).__name__})"
+        for k, when in enumerate(comp.events() or []):
+            whens.append((comp, k, when, label))
         for number, element, residual, doc, smooth in comp.residuals():
             suffix = f"[{element}]" if element is not None else ""
             equations.append(FlatEquation(residual, comp.path, f"{label}, equation {number}{suffix}", doc,
@@ -112,7 +115,30 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
             if s.element_hash() not in skip:
                 ensure(s, eq)
 
+    zero_crossings = []
+    for comp, k, when, label in whens:
+        g = ca.SX(when.condition)
+        if g.numel() != 1:
+            raise StructureError(f"{label}, event {k + 1}: the When condition must be a scalar expression")
+        for s in ca.symvar(g):
+            if s.element_hash() not in by_hash and s.element_hash() not in skip:
+                raise StructureError(f"{label}, event {k + 1}: the condition uses {s.name()!r}, which is "
+                                     f"not a variable of the model")
+        resets = []
+        for target, value in (when.reset or {}).items():
+            target = ca.SX(target)
+            if not (target.is_scalar() and target.is_symbolic()) or target.element_hash() not in by_hash:
+                raise StructureError(f"{label}, event {k + 1}: reset targets must be the component's own "
+                                     f"variables (got {target})")
+            resets.append((by_hash[target.element_hash()], ca.SX(value)))
+        try:
+            direction = when.sign()
+        except ValueError as exc:
+            raise StructureError(f"{label}, event {k + 1}: {exc}") from None
+        zero_crossings.append(ZeroCrossing(g, tuple(resets), direction,
+                                           f"{label}, event {k + 1}" + (f" — {when.doc}" if when.doc else "")))
+
     return FlatSystem(model.name, tuple(variables), tuple(equations), tuple(parameters), der_of, time,
                       tuple(sorted(effects.items())), time_events=tuple(sorted(time_events)),
-                      folded_parameters=tuple(folded))
+                      folded_parameters=tuple(folded), zero_crossings=tuple(zero_crossings))
 

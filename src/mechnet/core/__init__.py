@@ -2,6 +2,6 @@
 from .component import Component, Connector
 from .declarations import (Across, Input, Output, Param, Port, State, Through, Var, nonnegative, nonzero,
                            positive, tunable)
-from .equation import Eq, der, time
+from .equation import Eq, When, der, time
 from .errors import *  # noqa: F401,F403
 from .model import Model

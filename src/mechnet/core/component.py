@@ -233,6 +233,10 @@ class Component:
     def variables(self) -> list[VariableInfo]:
         return list(self._variables)
 
+    def events(self) -> list:
+        """State events (`When`), for components with impacts, switches or resets."""
+        return []
+
     def time_events(self) -> list[tuple[float, str]]:
         """Times where a driving signal jumps or kinks, with what causes them."""
         return [(float(t), f"{self.path}.{key}: {sig!r}") for key, sig in self.signals.items()

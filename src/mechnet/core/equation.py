@@ -88,3 +88,26 @@ class Eq:
 
     def residual(self) -> ca.SX:
         return ca.SX(self.lhs) - ca.SX(self.rhs)
+
+
+_DIRECTIONS = {"both": 0, "rising": 1, "falling": -1, 0: 0, 1: 1, -1: -1}
+
+
+@dataclass(frozen=True)
+class When:
+    """A state event: when `condition` crosses zero (in `direction`), assign `reset` to states.
+
+    `reset` maps a state variable to its new value, an expression evaluated just
+    before the event (a bouncing ball: `{self.v: -self.e * self.v}`).
+    `direction`: "falling" (+ to −), "rising" (− to +) or "both".
+    """
+
+    condition: Expr
+    reset: dict = None
+    direction: object = "both"
+    doc: str = ""
+
+    def sign(self) -> int:
+        if self.direction not in _DIRECTIONS:
+            raise ValueError(f"When: direction {self.direction!r} must be 'falling', 'rising' or 'both'")
+        return _DIRECTIONS[self.direction]

@@ -225,17 +225,30 @@ class _Run:
                 self._record(t)
             return
         event_at = {t: cause for t, cause in events}
-        if self.monitor is not None:
+        if self.monitor is not None or self.dae.zero_labels:
             self._integrate_monitored(grid, event_at)
             return
         cuts = sorted({int(np.searchsorted(grid, t)) for t in event_at}
                       | set(chunk_bounds(grid.size, PROGRESS_CHUNKS if grid.size >= PROGRESS_MIN_POINTS else 1)))
         bounds = [0] + [c for c in cuts if 0 < c < grid.size - 1] + [grid.size - 1]
         bar, started = None, _time.perf_counter()
-        for a, b in zip(bounds[:-1], bounds[1:]):
-            ok = self._segment(grid[a: b + 1])
-            if not ok:
-                break
+        t_cur, a = grid[0], 0
+        for b in bounds[1:]:
+            while True:                       # a state event restarts the rest of this segment
+                points = np.concatenate([[t_cur], grid[a + 1: b + 1]])
+                n_before = len(self.T)
+                if not self._segment(points):
+                    if bar is not None:
+                        bar.close()
+                    return
+                event = self._state_event(points, n_before)
+                if event is None:
+                    break
+                t_cur = event
+                a = int(np.searchsorted(grid, t_cur, side="right")) - 1
+                if self.failure is not None:
+                    return
+            t_cur, a = grid[b], b
             if grid[b] in event_at:
                 self._restart_at(grid[b], event_at[grid[b]])
             if progress is not False and bar is None and len(bounds) > 2:
@@ -247,9 +260,97 @@ class _Run:
                                bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s [{elapsed}<{remaining}]")
                     bar.update(float(grid[b] - grid[0]))
             elif bar is not None:
-                bar.update(float(grid[b] - grid[a]))
+                bar.update(float(grid[b] - grid[bounds[bounds.index(b) - 1]]))
         if bar is not None:
             bar.close()
+
+    # ---- state events -------------------------------------------------------------------------
+
+    def _g(self, t, x, z):
+        return np.asarray(self.dae.zero(t, x, z, self._u_at(t), self.p, self.d)).ravel()
+
+    def _crossed(self, g_a, g_b):
+        """Which zero functions changed sign between two points, in their direction."""
+        dirs = np.array(self.dae.zero_directions)
+        falling = (g_a > 0) & (g_b <= 0)
+        rising = (g_a < 0) & (g_b >= 0)
+        return np.flatnonzero((falling & (dirs <= 0)) | (rising & (dirs >= 0)))
+
+    def _state_event(self, points, n_before):
+        """After a segment: find the first zero crossing between recorded points, locate and apply it.
+
+        Returns the event time (the segment must continue from there) or None.
+        """
+        if not self.dae.zero_labels:
+            return None
+        rows = range(n_before - 1, len(self.T))
+        G = [self._g(self.T[k], self.X[k], self.Z[k]) for k in rows]
+        for j in range(1, len(G)):
+            hit = self._crossed(G[j - 1], G[j])
+            if hit.size:
+                k = n_before - 1 + j - 1              # last recorded point before the crossing
+                t_a, x_a, z_a = self.T[k], self.X[k].copy(), self.Z[k].copy()
+                t_b = self.T[k + 1]
+                del self.T[k + 1:], self.X[k + 1:], self.Z[k + 1:], self.D[k + 1:]
+                return self._handle_event(t_a, x_a, z_a, t_b)
+        return None
+
+    def _advance_to(self, t_a, x_a, z_a, t):
+        F1 = self.integrators.get((1.0,))
+        out = F1(x0=x_a / self.xn, z0=z_a / self.zn if self.zn.size else np.zeros(0), p=self.pvec(t_a, t - t_a))
+        x = np.asarray(out["xf"]).ravel() * self.xn
+        z = np.asarray(out["zf"]).ravel() * self.zn if self.zn.size else np.zeros(0)
+        return x, z
+
+    def _handle_event(self, t_a, x_a, z_a, t_b):
+        """Illinois iteration on the earliest crossing, then the transition and re-initialisation."""
+        x_b, z_b = self._advance_to(t_a, x_a, z_a, t_b)
+        g_a, g_b = self._g(t_a, x_a, z_a), self._g(t_b, x_b, z_b)
+        hit = self._crossed(g_a, g_b)
+        i = int(hit[0])
+        if hit.size > 1:                              # earliest by the secant estimate
+            est = [t_a - g_a[h] * (t_b - t_a) / (g_b[h] - g_a[h]) for h in hit]
+            i = int(hit[int(np.argmin(est))])
+        lo, hi, f_lo, f_hi = t_a, t_b, g_a[i], g_b[i]
+        x_hi, z_hi = x_b, z_b
+        side = 0
+        tol = 1e-12 * max(1.0, abs(t_b))
+        for _ in range(200):
+            if hi - lo <= tol:
+                break
+            t = hi - f_hi * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
+            if not (lo < t < hi):
+                t = 0.5 * (lo + hi)
+            x_t, z_t = self._advance_to(t_a, x_a, z_a, t)
+            g_t = self._g(t, x_t, z_t)
+            crossed = self._crossed(g_a, g_t)
+            early = [h for h in crossed if h != i]
+            if early:                                 # another function crosses before t: it comes first
+                i = int(early[0])
+                lo, f_lo, hi, f_hi, x_hi, z_hi, side = t_a, g_a[i], t, g_t[i], x_t, z_t, 0
+                continue
+            if i in crossed:                          # the crossing lies in (lo, t]
+                hi, f_hi, x_hi, z_hi = t, g_t[i], x_t, z_t
+                if side == -1:
+                    f_lo *= 0.5                       # Illinois: the same end kept twice
+                side = -1
+            else:
+                lo, f_lo = t, g_t[i]
+                if side == 1:
+                    f_hi *= 0.5
+                side = 1
+        t_e = hi
+        self._record_at(t_e, x_hi, z_hi)
+        x_plus, _ = self.dae.transition[i](t_e, x_hi, z_hi, self._u_at(t_e), self.p, self.d)
+        self.x = np.asarray(x_plus).ravel()
+        self.z = solve_algebraic(self.dae, t_e, self.x, z_hi, self._u_at(t_e), self.p, self.d)
+        self._record_at(t_e, self.x, self.z)
+        self.events.append(Event(float(t_e), "state", self.dae.zero_labels[i]))
+        return t_e
+
+    def _record_at(self, t, x, z):
+        self.x, self.z = np.asarray(x, dtype=float).copy(), np.asarray(z, dtype=float).copy()
+        self._record(t)
 
     def _u_at(self, t):
         u = self.plan.constant.copy()
@@ -327,13 +428,24 @@ class _Run:
                 self._recover(np.concatenate([[t_cur], grid[k + 1: k_end + 1]]), message)
                 return
             ratios, switch_at = self._ratios(pts, xs, zs)
-            stop = switch_at if switch_at is not None else len(pts) - 1
+            crossing = self._first_crossing(pts, xs, zs, switch_at)
+            if crossing is not None:
+                switch_at = None
+            stop = crossing if crossing is not None else (switch_at if switch_at is not None else len(pts) - 1)
             for m in range(1, stop + 1):
                 if is_output[m]:
                     self.x, self.z = xs[m], zs[m]
                     self._record(pts[m])
             self.x, self.z = xs[stop].copy(), zs[stop].copy()
             t_cur = pts[stop]
+            if crossing is not None:
+                t_cur = self._handle_event(pts[stop], xs[stop].copy(), zs[stop].copy(), pts[stop + 1])
+                if self.failure is not None:
+                    return
+                density = self._event_density(density, grid[1] - grid[0])
+                if self.failure is not None:
+                    return
+                per_piece = 1
             k = int(np.searchsorted(grid, t_cur, side="right")) - 1
             if t_cur == grid[k] and k > 0 and grid[k] in event_at:
                 self._restart_at(grid[k], event_at[grid[k]])
@@ -347,7 +459,7 @@ class _Run:
             worst = float(np.max(steps)) if steps.size else 0.0
             if worst > 0.1 and density < 256:
                 density *= 2
-            elif worst < 0.02 and density > 1:
+            elif worst < 0.02 and density > 1 and self.monitor is not None:
                 density //= 2
 
     def _dense(self, pts):
@@ -370,9 +482,43 @@ class _Run:
             else np.zeros((xf.shape[0], 0))
         return True, "", np.vstack([self.x, xf]), np.vstack([self.z.reshape(1, -1), zf])
 
+    def _first_crossing(self, pts, xs, zs, limit):
+        """Index of the last point before the first zero crossing among pts (up to `limit`), or None."""
+        if not self.dae.zero_labels:
+            return None
+        n = pts.size if limit is None else limit + 1
+        U = np.column_stack([self._u_at(t) for t in pts[:n]]) if self.plan.varying else \
+            np.tile(self.plan.constant.reshape(-1, 1), n)
+        G = np.asarray(self.dae.zero.map(n)(pts[:n].reshape(1, -1), xs[:n].T, zs[:n].T, U,
+                                            np.tile(self.p.reshape(-1, 1), n),
+                                            np.tile(self.d.reshape(-1, 1), n))).T
+        dirs = np.array(self.dae.zero_directions)
+        falling = (G[:-1] > 0) & (G[1:] <= 0) & (dirs <= 0)
+        rising = (G[:-1] < 0) & (G[1:] >= 0) & (dirs >= 0)
+        hits = np.flatnonzero(np.any(falling | rising, axis=1))
+        return int(hits[0]) if hits.size else None
+
+    def _event_density(self, density, out_interval):
+        """Monitor points close enough to resolve the spacing of recent state events (or stop at a Zeno point)."""
+        times = [e.t for e in self.events if e.kind == "state"]
+        if len(times) < 2:
+            return density
+        gap = times[-1] - times[-2]
+        needed = 8.0 * out_interval / max(gap, 1e-300)
+        if needed > 4096:
+            self.failure = IntegrationError(
+                f"event accumulation at t = {times[-1]:.9g} s: state events {gap:.3g} s apart, too close to "
+                f"resolve (chattering or a Zeno point such as a bouncing ball coming to rest); the result "
+                f"holds the solution up to there", t=float(times[-1]), step=float("nan"),
+                worst=self.events[-1].cause, solver_message="event accumulation")
+            return density
+        return int(min(4096, max(density, 2 ** int(np.ceil(np.log2(max(needed, 1.0)))))))
+
     def _ratios(self, pts, xs, zs):
         """Conditioning ratio (running / best selection) at each point, and the first point to switch at."""
         n = pts.size
+        if self.monitor is None:
+            return np.ones(n), None
         U = np.column_stack([self._u_at(t) for t in pts]) if self.plan.varying else \
             np.tile(self.plan.constant.reshape(-1, 1), n)
         Y = np.asarray(self.dae.observed.map(n)(pts.reshape(1, -1), xs.T, zs.T, U,
