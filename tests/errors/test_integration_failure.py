@@ -107,7 +107,7 @@ def test_partial_result_is_accurate(blowup):
 
 
 def test_failure_at_the_first_step_keeps_the_initial_point():
-    cm = compiled(SqrtOfNegative(name="b"))
+    cm = compiled(SqrtOfNegative(name="b", x_start=-1.0, y_start=1.0))
     with pytest.warns(mn.IntegrationWarning, match=r"b\.x"):
         res = cm.simulate(1.0)
     assert res.failure.t == 0.0
@@ -117,7 +117,7 @@ def test_failure_at_the_first_step_keeps_the_initial_point():
 
 
 def test_no_failure_means_no_failure_object():
-    cm = compiled(Decay(name="d"))
+    cm = compiled(Decay(name="d", x_start=1.0))
     res = cm.simulate(1.0, n_out=11)
     assert res.success is True and res.failure is None
     assert res["d.x"][-1] == pytest.approx(math.exp(-1.0), rel=1e-5)

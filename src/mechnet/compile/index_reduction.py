@@ -27,8 +27,12 @@ _DUMMY_PREFERENCE = {"never": 0, "avoid": 1, "default": 2, "prefer": 3}
 
 @dataclass(frozen=True)
 class IndexReductionOptions:
-    method: str = "dummy_derivatives"     # "dummy_derivatives" or "none"
+    method: str = "dummy_derivatives"     # "dummy_derivatives", "none", or "baumgarte" (CasADi's, see baumgarte.py)
     rank_tolerance: float = 1e-10
+    # method="baumgarte" only: CasADi's dae_reduce_index takes ONE pole, repeated for every order: an
+    # equation differentiated n times becomes e⁽ⁿ⁾ + … with the characteristic polynomial (s − pole)ⁿ.
+    # Must be < 0 (0 = plain Pantelides without correction).
+    baumgarte_pole: float = -10.0
 
 
 @dataclass(frozen=True)

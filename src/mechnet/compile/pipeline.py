@@ -35,14 +35,19 @@ def compile_model(model, options: CompileOptions | None = None):
     simplified, aliases = simplify(flat, options.simplify)
     timings["simplify"] = _time.perf_counter() - t0
     t0 = _time.perf_counter()
-    reduced, index = reduce_index(simplified, options.reduce)
-    timings["reduce"] = _time.perf_counter() - t0
-    t0 = _time.perf_counter()
-    structure = analyze_structure(reduced, options.structure)
-    timings["analyze"] = _time.perf_counter() - t0
-    t0 = _time.perf_counter()
-    dae = emit(flat, reduced, aliases, structure, options.emit)
-    timings["emit"] = _time.perf_counter() - t0
+    if options.reduce.method == "baumgarte":      # CasADi's Pantelides + Baumgarte, for comparison studies
+        from .baumgarte import reduce_baumgarte
+        reduced, index, structure, dae = reduce_baumgarte(flat, simplified, aliases, options.reduce)
+        timings["reduce"] = _time.perf_counter() - t0
+    else:
+        reduced, index = reduce_index(simplified, options.reduce)
+        timings["reduce"] = _time.perf_counter() - t0
+        t0 = _time.perf_counter()
+        structure = analyze_structure(reduced, options.structure)
+        timings["analyze"] = _time.perf_counter() - t0
+        t0 = _time.perf_counter()
+        dae = emit(flat, reduced, aliases, structure, options.emit)
+        timings["emit"] = _time.perf_counter() - t0
     model.freeze()
     stages = {"flat": flat, "simplified": simplified, "aliases": aliases, "reduced": reduced, "index": index,
               "structure": structure, "dae": dae}

@@ -56,7 +56,8 @@ def _newton(residual: ca.Function, w0: np.ndarray, max_iter: int = 50):
     return w_val, r
 
 
-def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess: dict) -> InitialPoint:
+def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess: dict,
+               steady_state: bool = False) -> InitialPoint:
     nx_, nz = dae.x.numel(), dae.z.numel()
     y = dae.observed(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d)
     row = {n: k for k, n in enumerate(dae.observed_names)}
@@ -96,6 +97,9 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
                 implied[j] = (name, val)
         conditions.append((name, expr, float(value)))
     alg = numeric(dae.alg(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d))
+    if steady_state:                  # der(x) = 0 for every state, in place of start values for them
+        ode = numeric(dae.ode(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d))
+        conditions.extend((f"der({n})", ode[k], 0.0) for k, n in enumerate(dae.x_names))
     # 2. structure: conditions and algebraic equations against states and algebraics
     rows_expr = [c[1] for c in conditions] + [alg[k] for k in range(nz)]
     g = nx.Graph()
@@ -112,8 +116,13 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
         _too_many(conditions, unmatched, g, dae)
     matched_w = {match[("r", k)][1] for k in range(len(rows_expr)) if ("r", k) in match}
     free = [j for j in range(nx_) if j not in matched_w]
-    # 3. free states take their guess
     names_w = list(dae.x_names) + list(dae.z_names)
+    if free:
+        raise InitializationError(
+            f"too few fixed start values: nothing fixes the states {', '.join(names_w[j] for j in free)}; "
+            f"give them start values (component arguments such as phi_start=, or simulate(start={{...}})), "
+            f"or use simulate(steady_state=True)")
+    # 3. (kept for the Newton start) guesses
     w0 = np.array([float(guess.get(n, dae.guesses.get(n, 0.0))) for n in names_w])
     for j in free:
         rows_expr.append(w[j])

@@ -97,12 +97,13 @@ class _Integrators:
 def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol: float = 1e-8,
              method: str = "auto", n_out: int | None = None, t_out=None, params: dict | None = None,
              inputs: dict | None = None, start: dict | None = None, guess: dict | None = None,
-             max_steps: int = 20_000, progress: bool | None = None) -> Result:
+             max_steps: int = 20_000, progress: bool | None = None, steady_state: bool = False) -> Result:
     """Integrate the compiled model from `t_start` to `t_end`.
 
     `start` fixes values (any dotted name), `guess` only seeds the Newton
     iteration; `inputs` maps input names to numbers, callables f(t), (times,
-    values) pairs or N×2 arrays. `progress=None` shows a bar when a long grid
+    values) pairs or N×2 arrays. `steady_state=True` starts from der(x) = 0
+    (every state; fixed start values then over-specify). `progress=None` shows a bar when a long grid
     (≥ 1000 points) takes more than a second. A solver failure returns the
     partial result with `result.failure` set (and a warning); it does not raise.
     """
@@ -130,7 +131,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
             raise unknown_name(name, dae.observed_names, "guess for")
 
     wall = _time.perf_counter()
-    init = initialize(dae, t_start, plan.constant, p, starts, guess or {})
+    init = initialize(dae, t_start, plan.constant, p, starts, guess or {}, steady_state)
     events = breakpoints(dae.time_events, t_start, t_end)
     grid = output_grid(grid, events)
     run = _Run(cm, dae, plugin, extra, rtol, atol, max_steps, plan, p, d, init)
