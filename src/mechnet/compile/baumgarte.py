@@ -215,9 +215,15 @@ def reduce_baumgarte(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, 
     # observed: every name of the scene, then the new derivative symbols, then the parameters
     survivor = {v.name: v.symbol for v in flat.variables}
     obs_names, obs = [], []
+    own = dict(zip(x_names + z_names, ca.vertsplit(ca.vertcat(x, z))))
     for v in original.variables:
         obs_names.append(v.name)
-        obs.append(survivor[v.name] if v.name in survivor else aliases.expressions[v.name])
+        if v.name in survivor:
+            obs.append(survivor[v.name])
+        elif v.name in own:           # der(p.x): an alias of p.vx before, a state of its own here
+            obs.append(own[v.name])
+        else:
+            obs.append(aliases.expressions[v.name])
     known = set(obs_names)
     for s, name in zip(ca.vertsplit(ca.vertcat(x, z)), x_names + z_names):
         if name not in known:
@@ -251,9 +257,11 @@ def reduce_baumgarte(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, 
     guesses = {v.name: (v.guess if v.guess is not None else v.default_start) for v in original.variables}
     u_default = tuple(v.input_default for v in flat.variables if v.kind == "input")
     p_value = tuple(q.value for q in flat.parameters)
-    consistent = _consistent_point(original, flat, aliases, se, reduced["I"], args, x_names + z_names,
-                                   starts, guesses, u_default, p_value)
+    consistent, dependent = _consistent_point(dict(zip(obs_names, obs)), se, reduced["I"], args,
+                                              x_names + z_names, starts, guesses, u_default, p_value)
     guesses.update(consistent)
+    # every coordinate is a state here: those the constraints determine are fixed at their consistent values
+    starts.update({n: consistent[n] for n in dependent})
 
     report = BaumgarteReport(
         differentiated=tuple((form.labels[k], n) for k, n in enumerate(counted.counts[:form.n_flat]) if n > 0),
@@ -357,27 +365,29 @@ def _structure(alg, z) -> StructureReport:
                            (tuple(range(alg.numel())),) if alg.numel() else (), alg.numel())
 
 
-def _consistent_point(original, flat, aliases, se, invariants, args, names_w, starts, guesses, u0, p0):
+def _consistent_point(observed, se, invariants, args, names_w, starts, guesses, u0, p0):
     """States and algebraics satisfying alg, CasADi's invariants I and the fixed starts at t = 0.
 
-    Free coordinates (not reached by a fixed start through the constraints)
-    keep their guess. Returns {} when no consistent point is found: the
-    simulator's initialisation then reports the problem.
+    Returns the values by name and the names the invariants determine (one
+    per invariant, from a maximum matching of starts + I + alg against the
+    unknowns: fixing them in place of I keeps the system square). Free
+    coordinates (reached by nothing) keep their guess. Returns ({}, []) when
+    no consistent point is found: the simulator's initialisation reports it.
     """
     t, x, z, u, p, _ = args
     w = ca.vertcat(x, z)
     nw = w.numel()
     if nw == 0:
-        return {}
-    survivor = {v.name: v.symbol for v in flat.variables}
+        return {}, []
     rows, targets = [], []
     for name, value in starts.items():
-        expr = survivor[name] if name in survivor else aliases.expressions.get(name)
+        expr = observed.get(name)
         if expr is None or not ca.depends_on(expr, w):
             continue
         rows.append(expr)
         targets.append(float(value))
     n_fixed = len(rows)
+    n_inv = invariants.numel()
     for r in ca.vertsplit(invariants) + ca.vertsplit(se["alg"]):
         rows.append(r)
         targets.append(0.0)
@@ -411,5 +421,6 @@ def _consistent_point(original, flat, aliases, se, invariants, args, names_w, st
             lam *= 0.5
         sol, r = trial, rt
     if not (np.all(np.isfinite(r)) and np.max(np.abs(r), initial=0.0) < 1e-9 * (1.0 + np.max(np.abs(sol)))):
-        return {}
-    return {n: float(v) for n, v in zip(names_w, sol)}
+        return {}, []
+    dependent = [names_w[match[("r", k)][1]] for k in range(n_fixed, n_fixed + n_inv) if ("r", k) in match]
+    return {n: float(v) for n, v in zip(names_w, sol)}, dependent
