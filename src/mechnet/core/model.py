@@ -53,7 +53,7 @@ class Model:
             other = self._items[item.name]
             raise NameConflictError(f"model {self.name!r}: a component named {item.name!r} already exists "
                                     f"({type(other).__name__}); every component needs its own name")
-        if getattr(item, "_parent", None) is not None or any(item is v for v in self._items.values()):
+        if getattr(item, "_parent", None) is not None:
             raise NameConflictError(f"{item.name!r} is already part of a model; create a new instance")
         if isinstance(item, Model):
             item._parent = self
@@ -122,9 +122,12 @@ class Model:
         return False
 
     def owns(self, component) -> bool:
-        for item in self._items.values():
-            if item is component or (isinstance(item, Model) and item.owns(component)):
+        """True when the component was added to this model or to one of its subsystems."""
+        node = getattr(component, "_parent", None)
+        while node is not None:
+            if node is self:
                 return True
+            node = node._parent
         return False
 
     @staticmethod

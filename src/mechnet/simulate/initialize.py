@@ -71,16 +71,20 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
     # 1. fixed values: drop those that are constants of the model (checking them), dedupe equal ones
     conditions = []            # (name, expr, value)
     implied: dict[int, tuple[str, float]] = {}   # state/algebraic -> (name, value) for x_j = const conditions
-    for name, value in start.items():
-        expr = numeric(y[row[name]])
-        if not ca.depends_on(expr, w):
+    names = list(start)
+    exprs = numeric(ca.vertcat(*[y[row[n]] for n in names])) if names else ca.SX(0, 1)
+    pattern = _pattern(exprs, w)
+    for k, name in enumerate(names):
+        value = start[name]
+        expr = exprs[k]
+        single = pattern[k]
+        if not single:
             const = float(ca.evalf(expr))
             if abs(const - value) > 1e-9 * max(1.0, abs(value)):
                 raise InitializationError(
                     f"start value {name} = {value:g} cannot hold: the model fixes {name} = {const:g} "
                     f"(it is rigidly connected to a fixed or constant element); remove this start value")
             continue
-        single = [j for j in range(w.numel()) if ca.depends_on(expr, w[j])]
         if len(single) == 1:
             j = single[0]
             coef = ca.jacobian(expr, w[j])
@@ -106,10 +110,8 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
     left = [("r", k) for k in range(len(rows_expr))]
     g.add_nodes_from(left)
     g.add_nodes_from(("w", j) for j in range(nx_ + nz))
-    for k, expr in enumerate(rows_expr):
-        for j in range(nx_ + nz):
-            if ca.depends_on(expr, w[j]):
-                g.add_edge(("r", k), ("w", j))
+    rows_pattern = _pattern(ca.vertcat(*rows_expr), w) if rows_expr else []
+    g.add_edges_from((("r", k), ("w", j)) for k, cols in enumerate(rows_pattern) for j in cols)
     match = bipartite.hopcroft_karp_matching(g, top_nodes=left)
     unmatched = [k for k in range(len(rows_expr)) if ("r", k) not in match]
     if unmatched:
@@ -146,6 +148,17 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
     fixed = [c[0] for c in conditions[: len(conditions) - len(free)]]
     return InitialPoint(sol[:nx_], sol[nx_:], fixed, [names_w[j] for j in free],
                         float(np.max(np.abs(r))) if r.size else 0.0)
+
+
+def _pattern(exprs, w) -> list[list[int]]:
+    """For each row of exprs, the positions of w it depends on (one sparsity pass, not N² queries)."""
+    if exprs.numel() == 0 or w.numel() == 0:
+        return [[] for _ in range(exprs.numel())]
+    sp = ca.jacobian_sparsity(exprs, w)
+    rows = [[] for _ in range(exprs.numel())]
+    for r, c in zip(*sp.get_triplet()):
+        rows[r].append(c)
+    return rows
 
 
 def _too_many(conditions, unmatched, graph, dae):
