@@ -95,18 +95,42 @@ class _Graph:
         self.parent[k] = e
         return k
 
-    def augment(self, e, coloured_e, coloured_v) -> bool:
-        coloured_e.add(e)
+    def _free(self, e):
         for v in self.inc[e]:
             if self.visible(v) and v not in self.assign:
-                self.assign[v] = e
-                return True
-        for v in self.inc[e]:
-            if self.visible(v) and v not in coloured_v:
+                return v
+        return None
+
+    def augment(self, root, coloured_e, coloured_v) -> bool:
+        """Pantelides' augmenting-path search, iterative (deep chains would overflow recursion)."""
+        coloured_e.add(root)
+        free = self._free(root)
+        if free is not None:
+            self.assign[free] = root
+            return True
+        stack, via = [(root, iter(self.inc[root]))], []
+        while stack:
+            e, it = stack[-1]
+            for v in it:
+                if not self.visible(v) or v in coloured_v:
+                    continue
                 coloured_v.add(v)
-                if self.augment(self.assign[v], coloured_e, coloured_v):
+                e2 = self.assign[v]
+                coloured_e.add(e2)
+                free = self._free(e2)
+                if free is not None:
+                    self.assign[free] = e2
                     self.assign[v] = e
+                    for k in range(len(via) - 1, -1, -1):
+                        self.assign[via[k]] = stack[k][0]
                     return True
+                stack.append((e2, iter(self.inc[e2])))
+                via.append(v)
+                break
+            else:
+                stack.pop()
+                if via:
+                    via.pop()
         return False
 
     def pantelides(self, n_equations: int, max_rounds: int):
@@ -343,30 +367,26 @@ def _start_values(flat: FlatSystem, variables) -> np.ndarray:
 
 
 def _pick_columns(J, cand, m, priority, tol):
-    """Greedy pivoted Gram–Schmidt: dummy-preferred variables first, then the largest remaining column."""
+    """Columns for the dummies: dummy-preferred priority groups first, pivoted QR (LAPACK) within each."""
+    from scipy.linalg import qr
+
     scale = max(np.max(np.abs(J)) if J.size else 0.0, 1e-300)
-    basis = []
+    Q = np.zeros((J.shape[0], 0))
     chosen = []
-    groups = sorted({priority(v) for v in cand})
-    for g in groups:
-        while len(chosen) < m:
-            best, best_norm, best_vec = None, tol * scale, None
-            for k, v in enumerate(cand):
-                if priority(v) != g or v in chosen:
-                    continue
-                col = J[:, k].copy()
-                for b in basis:
-                    col -= b * (b @ col)
-                norm = float(np.linalg.norm(col))
-                if norm > best_norm * (1 + 1e-9):
-                    best, best_norm, best_vec = v, norm, col
-            if best is None:
-                break
-            chosen.append(best)
-            basis.append(best_vec / best_norm)
-        if len(chosen) == m:
-            return chosen
-    return None if len(chosen) < m else chosen
+    for g in sorted({priority(v) for v in cand}):
+        need = m - len(chosen)
+        if need == 0:
+            break
+        cols = [k for k, v in enumerate(cand) if priority(v) == g]
+        A = J[:, cols]
+        if Q.shape[1]:
+            A = A - Q @ (Q.T @ A)
+        q, r, piv = qr(A, mode="economic", pivoting=True)
+        diag = np.abs(np.diag(r))
+        take = min(int(np.sum(diag > tol * scale)), need)
+        chosen.extend(cand[cols[piv[k]]] for k in range(take))
+        Q = np.hstack([Q, q[:, :take]])
+    return chosen if len(chosen) == m else None
 
 
 def _no_selection(h, equations) -> str:

@@ -54,30 +54,37 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
     vec = ca.vertcat(*[symbols[v] for v in variables])
     linear = False
     jac = ca.jacobian(ca.vertcat(*residuals), vec)
-    if guarded and not ca.depends_on(jac, vec):
+    constant_coefficients = all(s.element_hash() in parameter_hashes for s in ca.symvar(jac))
+    if guarded and not constant_coefficients and not ca.depends_on(jac, vec):
         rhs = -ca.substitute(ca.vertcat(*residuals), vec, ca.DM.zeros(n))
         sol = rhs / jac if n == 1 else ca.solve(jac, rhs)
         return BlockSolution([(v, sol[k]) for k, v in enumerate(variables)], [], [], [])
     if n > 1:
-        linear = not ca.depends_on(jac, vec) and all(s.element_hash() in parameter_hashes for s in ca.symvar(jac))
+        linear = constant_coefficients
     unknown = {symbols[v].element_hash(): v for v in variables}
     pending = list(range(n))
     current = list(residuals)
     solved, tears, out_res, rows = [], [], [], []
     remaining = set(variables)
+    # which unknowns each equation holds, and which equations hold each unknown (kept up to date)
+    holds = [{unknown[s.element_hash()] for s in ca.symvar(r) if s.element_hash() in unknown} for r in current]
+    users = {v: set() for v in variables}
+    for k, vs in enumerate(holds):
+        for v in vs:
+            users[v].add(k)
 
     def unknowns_of(k):
-        return [unknown[s.element_hash()] for s in ca.symvar(current[k])
-                if s.element_hash() in unknown and unknown[s.element_hash()] in remaining]
+        return [v for v in holds[k] if v in remaining]
 
-    while pending:
+    open_eqs = set(pending)
+    while open_eqs:
         progress = False
-        for k in list(pending):
+        for k in sorted(open_eqs):
             unk = unknowns_of(k)
             if not unk:
                 out_res.append(current[k])
                 rows.append(k)
-                pending.remove(k)
+                open_eqs.discard(k)
                 progress = True
             elif len(unk) == 1:
                 sol = solve_linear_for(current[k], symbols[unk[0]], parameter_hashes)
@@ -86,14 +93,17 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
                 v = unk[0]
                 solved.append((v, sol))
                 remaining.discard(v)
-                pending.remove(k)
-                for j in pending:
-                    if ca.depends_on(current[j], symbols[v]):
-                        current[j] = ca.substitute(current[j], symbols[v], sol)
+                open_eqs.discard(k)
+                brought = {unknown[s.element_hash()] for s in ca.symvar(sol) if s.element_hash() in unknown}
+                for j in users[v] & open_eqs:
+                    current[j] = ca.substitute(current[j], symbols[v], sol)
+                    holds[j] |= brought
+                    for b in brought:
+                        users[b].add(j)
                 progress = True
         if not progress:
             counts = {v: 0 for v in remaining}
-            for k in pending:
+            for k in open_eqs:
                 for v in unknowns_of(k):
                     counts[v] += 1
             tear = max(sorted(counts), key=lambda v: counts[v])
