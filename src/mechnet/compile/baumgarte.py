@@ -22,13 +22,11 @@ mechnet's reduce / analyze / emit stages by CasADi's building blocks:
    the scene observed, like `casadi_dae.emit`).
 
 There is no dummy-derivative state selection here (`dummies=()`, no
-re-pivoting). Since every coordinate is a state, the start point must satisfy
-the invariants: it is computed here (at t = 0 with the default inputs and
-parameter values) and stored as the guesses of the states, so the simulator's
-own initialisation starts consistent. Start values passed to `simulate(...,
-start=...)` are enforced by the simulator but not propagated through the
-invariants; Baumgarte then pulls the run onto the constraint manifold at the
-rate |pole|.
+re-pivoting): every coordinate stays a state, so the start point must satisfy
+the invariants. They are observed as "invariant[k]" (descriptions in
+`dae.invariant_names`) and fixed to 0 as start values: the simulator's own
+initialisation then starts on the constraint manifold, whatever the other
+start values and parameters are.
 
 CasADi's stats dict has a single key, "index" (max differentiation count + 1);
 the per-equation counts are read off the reduced system (`casadi_reduction`).
@@ -39,9 +37,6 @@ import math
 from dataclasses import dataclass, field
 
 import casadi as ca
-import networkx as nx
-import numpy as np
-from networkx.algorithms import bipartite
 
 from ..core.errors import StructureError
 from .artifacts import AliasMap, FlatSystem, Selection, SemiExplicitDAE, StructureReport
@@ -230,16 +225,25 @@ def reduce_baumgarte(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, 
             obs_names.append(name)
             obs.append(s)
             known.add(name)
+
+    # invariants: each differentiated constraint and its derivatives below the order CasADi used, i.e.
+    # what CasADi dropped (its "I"), with labels. Observed as "invariant[k]" and fixed to 0 as start
+    # values, so the simulator's initialisation starts on the constraint manifold whatever the other
+    # start values and parameters are.
+    inv_expr, inv_labels = _invariants(form, counted, x, se["ode"], t)
+    if inv_expr.numel() != reduced["I"].numel():
+        raise StructureError(f"internal: {inv_expr.numel()} invariants against CasADi's {reduced['I'].numel()}")
+    inv_names = tuple(f"invariant[{k}]" for k in range(inv_expr.numel()))
+    invariants = _fn("invariants", args, inv_expr, "c")
+    obs_names.extend(inv_names)
+    obs.extend(ca.vertsplit(inv_expr))
     obs_names.extend(q.name for q in flat.parameters)
     obs.append(p)
     observed = _fn("observed", args, ca.vertcat(*obs) if obs else ca.SX(0, 1), "y")
-
-    # invariants: the constraints as written that CasADi differentiated (the drift monitor)
-    inv_rows = [k for k, n in enumerate(counted.counts) if n > 0]
-    inv_expr = ca.vertcat(*[form.dae["alg"][k] for k in inv_rows]) if inv_rows else ca.SX(0, 1)
-    invariants = _fn("invariants", args, inv_expr, "c")
+    if reduced["alg"].numel() != len(counted.row_source):
+        raise StructureError("internal: CasADi's reductions with and without markers differ")
     alg_labels = []
-    for r, k in enumerate(counted.row_source):
+    for k in counted.row_source:
         n = counted.counts[k]
         alg_labels.append(form.labels[k] if n == 0 else
                           f"d{'' if n == 1 else n}/dt{'' if n == 1 else n} {form.labels[k]} "
@@ -257,18 +261,14 @@ def reduce_baumgarte(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, 
     guesses = {v.name: (v.guess if v.guess is not None else v.default_start) for v in original.variables}
     u_default = tuple(v.input_default for v in flat.variables if v.kind == "input")
     p_value = tuple(q.value for q in flat.parameters)
-    consistent, dependent = _consistent_point(dict(zip(obs_names, obs)), se, reduced["I"], args,
-                                              x_names + z_names, starts, guesses, u_default, p_value)
-    guesses.update(consistent)
-    # every coordinate is a state here: those the constraints determine are fixed at their consistent values
-    starts.update({n: consistent[n] for n in dependent})
-
+    units_out.update({n: "1" for n in inv_names})
+    starts.update({n: 0.0 for n in inv_names})
     report = BaumgarteReport(
         differentiated=tuple((form.labels[k], n) for k, n in enumerate(counted.counts[:form.n_flat]) if n > 0),
         index=int(stats["index"]),
         state_relations=tuple((form.labels[k], n) for k, n in enumerate(counted.counts)
                               if k >= form.n_flat and n > 0),
-        baumgarte_pole=pole, invariants=tuple(form.labels[k] for k in inv_rows), stats=dict(stats),
+        baumgarte_pole=pole, invariants=inv_labels, stats=dict(stats),
         states=x_names)
     structure = _structure(se["alg"], z)
     info = {"alg_labels": tuple(alg_labels), "solved": 0, "torn": z.numel(), "observed_only": 0,
@@ -282,7 +282,7 @@ def reduce_baumgarte(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, 
         x_names=x_names, z_names=z_names, u_names=tuple(v.name for v in flat.variables if v.kind == "input"),
         p_names=tuple(q.name for q in flat.parameters), d_names=(),
         ode=ode, alg=algf, observed=observed, observed_names=tuple(obs_names),
-        zero=zero, transition=transitions, invariants=invariants, invariant_names=report.invariants,
+        zero=zero, transition=transitions, invariants=invariants, invariant_names=inv_labels,
         selections=(Selection(x_names, z_names, ode, algf, observed),),
         x_nominal=tuple(nominal[s.element_hash()] for s in ca.vertsplit(x)),
         z_nominal=tuple(nominal[s.element_hash()] for s in ca.vertsplit(z)),
@@ -365,62 +365,20 @@ def _structure(alg, z) -> StructureReport:
                            (tuple(range(alg.numel())),) if alg.numel() else (), alg.numel())
 
 
-def _consistent_point(observed, se, invariants, args, names_w, starts, guesses, u0, p0):
-    """States and algebraics satisfying alg, CasADi's invariants I and the fixed starts at t = 0.
-
-    Returns the values by name and the names the invariants determine (one
-    per invariant, from a maximum matching of starts + I + alg against the
-    unknowns: fixing them in place of I keeps the system square). Free
-    coordinates (reached by nothing) keep their guess. Returns ({}, []) when
-    no consistent point is found: the simulator's initialisation reports it.
-    """
-    t, x, z, u, p, _ = args
-    w = ca.vertcat(x, z)
-    nw = w.numel()
-    if nw == 0:
-        return {}, []
-    rows, targets = [], []
-    for name, value in starts.items():
-        expr = observed.get(name)
-        if expr is None or not ca.depends_on(expr, w):
-            continue
-        rows.append(expr)
-        targets.append(float(value))
-    n_fixed = len(rows)
-    n_inv = invariants.numel()
-    for r in ca.vertsplit(invariants) + ca.vertsplit(se["alg"]):
-        rows.append(r)
-        targets.append(0.0)
-    sub = lambda e: ca.substitute(e, ca.vertcat(t, u, p), ca.vertcat(0.0, ca.DM(list(u0)), ca.DM(list(p0))))  # noqa: E731
-    rows = [sub(r) for r in rows]
-    incidence = [[j for j in range(nw) if ca.depends_on(r, w[j])] for r in rows]
-    g = nx.Graph()
-    g.add_nodes_from(("r", k) for k in range(len(rows)))
-    g.add_nodes_from(("w", j) for j in range(nw))
-    g.add_edges_from((("r", k), ("w", j)) for k, row in enumerate(incidence) for j in row)
-    match = bipartite.hopcroft_karp_matching(g, top_nodes=[("r", k) for k in range(len(rows))])
-    keep = [k for k in range(len(rows)) if ("r", k) in match or k >= n_fixed]
-    w0 = np.array([float(guesses.get(n, 0.0)) for n in names_w])
-    free = [j for j in range(nw) if ("w", j) not in match]
-    res = ca.vertcat(*[rows[k] - targets[k] for k in keep], *[w[j] - w0[j] for j in free])
-    F = ca.Function("baumgarte_init", [w], [res])
-    Jf = ca.Function("baumgarte_init_jac", [w], [ca.jacobian(res, w)])
-    sol = w0.copy()
-    r = np.asarray(F(sol)).ravel()
-    for _ in range(50):
-        norm = float(np.max(np.abs(r))) if r.size else 0.0
-        if norm < 1e-13 * (1.0 + float(np.max(np.abs(sol)))):
-            break
-        step = np.linalg.lstsq(np.asarray(Jf(sol)), -r, rcond=None)[0]
-        lam = 1.0
-        while lam > 1e-6:
-            trial = sol + lam * step
-            rt = np.asarray(F(trial)).ravel()
-            if np.all(np.isfinite(rt)) and np.max(np.abs(rt)) < (1 - 1e-4 * lam) * norm:
-                break
-            lam *= 0.5
-        sol, r = trial, rt
-    if not (np.all(np.isfinite(r)) and np.max(np.abs(r), initial=0.0) < 1e-9 * (1.0 + np.max(np.abs(sol)))):
-        return {}, []
-    dependent = [names_w[match[("r", k)][1]] for k in range(n_fixed, n_fixed + n_inv) if ("r", k) in match]
-    return {n: float(v) for n, v in zip(names_w, sol)}, dependent
+def _invariants(form, counted, x, ode, t):
+    """e, de/dt, …, up to the order below the one CasADi kept, for every differentiated equation e."""
+    deriv = {a.element_hash(): b for a, b in zip(ca.vertsplit(x), ca.vertsplit(ode))}
+    constant = {s.element_hash() for s in ca.vertsplit(form.dae["p"])} | {t.element_hash()}
+    rows, labels = [], []
+    for k, n in enumerate(counted.counts):
+        e = form.dae["alg"][k]
+        for m in range(n):
+            rows.append(e)
+            labels.append(form.labels[k] if m == 0 else f"d{'' if m == 1 else m}/dt{'' if m == 1 else m} "
+                                                          f"{form.labels[k]}")
+            if m + 1 < n:
+                vs = [s for s in ca.symvar(e) if s.element_hash() in deriv]
+                if any(s.element_hash() not in deriv and s.element_hash() not in constant for s in ca.symvar(e)):
+                    raise StructureError(f"internal: no derivative for a variable of {form.labels[k]}")
+                e = ca.jtimes(e, ca.vertcat(t, *vs), ca.vertcat(1.0, *[deriv[s.element_hash()] for s in vs]))
+    return (ca.vertcat(*rows) if rows else ca.SX(0, 1)), tuple(labels)

@@ -9,6 +9,7 @@ The system is solved with a damped Newton method built from CasADi functions.
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import casadi as ca
@@ -32,6 +33,9 @@ class InitialPoint:
 
 def _newton(residual: ca.Function, w0: np.ndarray, max_iter: int = 50):
     """Damped Newton on residual(w) = 0 with a backtracking line search."""
+    from scipy.sparse import csc_matrix
+    from scipy.sparse.linalg import spsolve
+
     w = ca.SX.sym("w", w0.size)
     jac = ca.Function("init_jacobian", [w], [ca.jacobian(residual(w), w)])
     w_val = w0.copy()
@@ -40,11 +44,16 @@ def _newton(residual: ca.Function, w0: np.ndarray, max_iter: int = 50):
         norm = np.max(np.abs(r)) if r.size else 0.0
         if norm < _TOL * (1.0 + np.max(np.abs(w_val), initial=0.0)):
             break
-        J = np.asarray(jac(w_val))
-        try:
-            step = np.linalg.solve(J, -r)
-        except np.linalg.LinAlgError:
-            step = np.linalg.lstsq(J, -r, rcond=None)[0]
+        J = jac(w_val)                         # sparse DM: solve sparse (a chain stays O(N))
+        rows, cols = J.sparsity().get_triplet()
+        A = csc_matrix((np.asarray(J.nonzeros(), dtype=float), (rows, cols)), shape=J.shape)
+        step = None
+        if A.shape[0] == A.shape[1] and A.shape[0] > 0:
+            with warnings.catch_warnings(), np.errstate(all="ignore"):
+                warnings.simplefilter("ignore")
+                step = spsolve(A, -r)
+        if step is None or not np.all(np.isfinite(step)):
+            step = np.linalg.lstsq(A.toarray(), -r, rcond=None)[0]
         lam = 1.0
         while lam > 1e-6:
             trial = w_val + lam * step
@@ -74,6 +83,7 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
     names = list(start)
     exprs = numeric(ca.vertcat(*[y[row[n]] for n in names])) if names else ca.SX(0, 1)
     pattern = _pattern(exprs, w)
+    coefs = ca.jacobian(exprs, w) if names and w.numel() else None
     for k, name in enumerate(names):
         value = start[name]
         expr = exprs[k]
@@ -87,7 +97,7 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
             continue
         if len(single) == 1:
             j = single[0]
-            coef = ca.jacobian(expr, w[j])
+            coef = coefs[k, j]
             if coef.is_constant() and float(ca.evalf(coef)) != 0.0:
                 offset = float(ca.evalf(ca.substitute(expr, w[j], 0.0)))
                 val = (value - offset) / float(ca.evalf(coef))

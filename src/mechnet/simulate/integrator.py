@@ -400,7 +400,7 @@ class _Run:
         first point where a better selection wins by the hysteresis factor, the
         piece is cut, the states are re-chosen and the integrator restarts —
         re-initialised — there (a "reselection" event). Monitor density adapts
-        so the conditioning ratio moves by at most ~0.1 between points; a piece
+        so the running selection's quality moves by at most ~0.05 between points; a piece
         covers a twentieth of the run, so restarts stay few.
         """
         n_int = grid.size - 1
@@ -456,11 +456,17 @@ class _Run:
                 per_piece = max(1, min(per_piece, int(np.ceil((stop / density) * 1.5))))
             else:
                 per_piece = min(longest, 2 * per_piece)
+                if self.monitor is not None and stop >= 2:
+                    # aim the next piece to end near the predicted switch (quality falling to ~0.45)
+                    slope = (ratios[stop] - ratios[stop - 1]) / max(pts[stop] - pts[stop - 1], 1e-300)
+                    if slope < 0:
+                        horizon = (ratios[stop] - 0.45) / -slope
+                        per_piece = int(min(per_piece, max(1, horizon // (grid[1] - grid[0]))))
             steps = np.abs(np.diff(ratios[: stop + 1])) if stop > 0 else np.zeros(1)
             worst = float(np.max(steps)) if steps.size else 0.0
-            if worst > 0.1 and density < 256:
+            if worst > 0.05 and density < 256:
                 density *= 2
-            elif worst < 0.02 and density > 1 and self.monitor is not None:
+            elif worst < 0.01 and density > 1 and self.monitor is not None:
                 density //= 2
 
     def _dense(self, pts):
@@ -527,8 +533,8 @@ class _Run:
                                                 np.tile(self.d.reshape(-1, 1), n))).T
         ratios = np.ones(n)
         for m in range(n):
-            ratio, switch = self.monitor.better(Y[m], probe=True)
-            ratios[m] = 1.0 if ratio is None else ratio
+            quality, switch = self.monitor.better(Y[m], probe=True)
+            ratios[m] = 1.0 if quality is None else quality
             if switch and m > 0:
                 return ratios[: m + 1], m
         return ratios, None
@@ -540,9 +546,9 @@ class _Run:
         """
         u = self._u_at(t)
         values = np.asarray(self.dae.observed(t, self.x, self.z, u, self.p, self.d)).ravel()
-        ratio, switch = self.monitor.better(values)
+        quality, switch = self.monitor.better(values)
         if switch is None:
-            return ratio
+            return quality
         dummies, new_dae, cause = switch
         named = dict(zip(self.dae.observed_names, values))
         x_new = np.array([named.get(n, 0.0) for n in new_dae.x_names])
@@ -633,7 +639,9 @@ class _SelectionMonitor:
         return cls(cm, factory, current)
 
     def better(self, observed_values, probe=False):
-        """(ratio, switch): switch is None, or (dummies, compiled selection, cause); probing only says True."""
+        """(quality, switch): the running selection's quality in [0, 1] (1: ideal, 0: singular) and
+        None, or — when another selection is better by the hysteresis factor — (dummies, compiled
+        selection, cause); when probing, just True."""
         dae = self.cm.dae
         named = dict(zip(dae.observed_names, observed_values))
         values = np.array([named.get(n, 0.0) for n in self.names])
@@ -641,20 +649,19 @@ class _SelectionMonitor:
             best, levels = self.factory.choose(values)
         except MechnetError:
             return None, None
-        if best == self.current:
-            return 1.0, None
         q_now = self.factory.quality(self.factory.levels_for(self.current), values)
+        if best == self.current:
+            return q_now, None
         q_best = self.factory.quality(levels, values)
-        ratio = q_now / q_best if q_best > 0 else 1.0
-        if ratio >= self.HYSTERESIS:
-            return ratio, None
+        if q_now >= self.HYSTERESIS * q_best:
+            return q_now, None
         if probe:
-            return ratio, True
+            return q_now, True
         old = _state_names(self.factory, self.current)
         new = _state_names(self.factory, best)
         cause = (f"dependent block conditioning {q_now:.2g} vs {q_best:.2g}: states "
                  f"{', '.join(old)} -> {', '.join(new)}")
-        return ratio, (best, self.cm.selection(best), cause)
+        return q_now, (best, self.cm.selection(best), cause)
 
 
 def _state_names(factory, dummies) -> list:
