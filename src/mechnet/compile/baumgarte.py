@@ -158,7 +158,8 @@ class BaumgarteReport:
     index: int                # CasADi's structural index
     state_relations: tuple    # (label "der(x) = v", times differentiated): the first-order relations CasADi added
     baumgarte_pole: float
-    invariants: tuple         # labels of the differentiated constraints (monitored by dae.invariants)
+    invariants: tuple         # labels of what CasADi dropped: each differentiated constraint and its
+                              # derivatives below the order kept (dae.invariants, observed "invariant[k]")
     stats: dict = field(default_factory=dict)   # CasADi's stats dict
     states: tuple = ()
     dummies: tuple = ()
@@ -189,7 +190,11 @@ def reduce_baumgarte(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, 
     if len(flat.unknowns()) != len(flat.equations):
         analyze_structure(flat)           # names the over- and under-determined parts
     form = implicit_form(flat)
-    counted = casadi_reduction(form)
+    try:
+        counted = casadi_reduction(form)
+    except StructureError:
+        analyze_structure(flat)           # structurally singular: named like the default route names it
+        raise
     _check_differentiable(flat, form, counted)
     try:
         reduced, stats = ca.dae_reduce_index(form.dae, {"baumgarte_pole": pole})

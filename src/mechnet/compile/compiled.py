@@ -109,8 +109,9 @@ class CompiledModel:
         if index is None or not index.differentiated:
             return f"  index: {0 if self.dae.is_ode else 1} (no index reduction needed)"
         diffs = "; ".join(f"{label} ×{n}" for label, n in index.differentiated)
-        return (f"  index: structural index {index.index} reduced; differentiated {diffs}; "
-                f"dummy derivatives {', '.join(index.dummies)}")
+        how = (f"dummy derivatives {', '.join(index.dummies)}" if index.dummies
+               else "no dummy derivatives (Baumgarte-stabilised, every coordinate a state)")
+        return f"  index: structural index {index.index} reduced; differentiated {diffs}; {how}"
 
     def __repr__(self):
         return f"<CompiledModel {self.name}: {self.n_states} states, {len(self.algebraic_names)} algebraics>"
