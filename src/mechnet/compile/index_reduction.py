@@ -143,6 +143,7 @@ class _Graph:
                     break
                 rounds += 1
                 if rounds > max_rounds:
+                    self.stuck = sorted(coloured_e)
                     return False
                 for v in coloured_v:
                     if v not in self.der:
@@ -173,7 +174,17 @@ def reduce_index(flat: FlatSystem, options: IndexReductionOptions = IndexReducti
     if len(flat.unknowns()) != n_eq0:
         return unchanged              # unbalanced: the structure stage names the culprits
     if not graph.pantelides(n_eq0, max_rounds=len(flat.variables) + 2):
-        return unchanged              # structurally singular: the structure stage names the culprits
+        roots = set()
+        for e in getattr(graph, "stuck", []):
+            while e in graph.parent:
+                e = graph.parent[e]
+            if e < n_eq0:
+                roots.add(e)
+        names = "\n".join(f"    {flat.equations[e].describe()}" for e in sorted(roots)[:12])
+        raise StructureError(
+            f"model {flat.name!r} is structurally singular: these equations cannot all hold however often "
+            f"they are differentiated — constraints fighting each other, typically two prescribed motions on "
+            f"one body, or a prescribed motion fighting a rigid constraint:\n{names}")
     if not graph.parent:
         return flat, IndexReport((), 1, (), (), tuple(flat.variables[i].name for i in sorted(flat.der_of)))
 

@@ -132,6 +132,10 @@ def _raise_unbalanced(flat, unknowns, incidence, matching):
             f"Typical causes: a prescribed motion or a rigid coupling between two masses or inertias "
             f"that are not directly connected.")
     parts = [header + "."]
+    if n_eq == n_var:
+        parts.append("The counts balance, so the structure itself is singular: typically a prescribed motion "
+                     "fighting a constraint (a Position/Speed source on a fixed flange), or two sources driving "
+                     "the same quantity.")
     if over:
         parts.append(f"Over-determined: these {len(over)} equations compete for too few unknowns "
                      f"(remove one, or check for a duplicated connection or a fixed start written as an equation):\n"

@@ -53,7 +53,13 @@ def _newton(residual: ca.Function, w0: np.ndarray, max_iter: int = 50):
                 warnings.simplefilter("ignore")
                 step = spsolve(A, -r)
         if step is None or not np.all(np.isfinite(step)):
-            step = np.linalg.lstsq(A.toarray(), -r, rcond=None)[0]
+            dense = A.toarray()
+            if not (np.all(np.isfinite(dense)) and np.all(np.isfinite(r))):
+                break                          # the caller reports the residual by equation
+            try:
+                step = np.linalg.lstsq(dense, -r, rcond=None)[0]
+            except np.linalg.LinAlgError:
+                break
         lam = 1.0
         while lam > 1e-6:
             trial = w_val + lam * step
