@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import casadi as ca
 
 from .artifacts import AliasMap, FlatSystem, Selection, SemiExplicitDAE, StructureReport
-from .tearing import solve_block
+from .tearing import BlockSolution, compose, solve_block
 
 ARGS = ("t", "x", "z", "u", "p", "d")
 
@@ -41,29 +41,29 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     depends: dict[int, set] = {}           # variable -> the unknowns its block reads
     for block in structure.blocks:
         block_vars = [structure.unknowns[structure.matching[e]] for e in block]
-        block_reads = set()
-        residuals = []
-        for e in block:
-            r = flat.equations[e].residual
-            used = [position[s.element_hash()] for s in ca.symvar(r)
-                    if position.get(s.element_hash()) in value]
-            block_reads.update(used)
-            if used:
-                r = ca.substitute(r, ca.vertcat(*[symbols[i] for i in used]),
-                                  ca.vertcat(*[value[i] for i in used]))
-            residuals.append(r)
+        residuals = [flat.equations[e].residual for e in block]
+        outside = set()
+        for r in residuals:
+            outside.update(i for i in (position.get(s.element_hash()) for s in ca.symvar(r)) if i in value)
         if options.tearing:
             guarded = any(flat.equations[e].order > 0 for e in block)
             sol = solve_block(residuals, block_vars, symbols, param_hashes, guarded)
         else:
-            from .tearing import BlockSolution
             sol = BlockSolution([], list(block_vars), residuals, list(range(len(block))))
-        for i, expr in sol.solved:
+        # compose: the block's own chain first (local, small), then the values from earlier blocks
+        defs, res = compose([symbols[i] for i, _ in sol.solved], [e for _, e in sol.solved], sol.residuals)
+        used = sorted(outside)
+        if used and (defs or res):
+            full = ca.substitute(ca.vertcat(*defs, *res), ca.vertcat(*[symbols[i] for i in used]),
+                                 ca.vertcat(*[value[i] for i in used]))
+            defs = [full[k] for k in range(len(defs))]
+            res = [full[len(defs) + k] for k in range(len(res))]
+        for (i, _), expr in zip(sol.solved, defs):
             value[i] = expr
         for i in block_vars:
-            depends[i] = block_reads
+            depends[i] = outside
         z_index.extend(sol.tears)
-        alg.extend(sol.residuals)
+        alg.extend(res)
         alg_labels.extend(flat.equations[block[k]].describe() for k in sol.rows)
     # torn variables are base symbols: substitute them nowhere, but observed reads them
     x_index = sorted(flat.der_of)

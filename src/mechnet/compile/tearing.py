@@ -42,64 +42,61 @@ def solve_linear_for(residual: ca.SX, var: ca.SX, parameter_hashes: set):
     return -rest / coef
 
 
+def compose(symbols_in_order: list, local: list, extra: list):
+    """Substitute a chain v_k = e_k(v_<k, ...) into itself and into `extra`, in one pass."""
+    if not symbols_in_order:
+        return list(local), list(extra)
+    defs, ex = ca.substitute_inplace(symbols_in_order, local, extra, False)
+    return list(defs), list(ex)
+
+
 def solve_block(residuals: list, variables: list, symbols: list, parameter_hashes: set,
                 guarded: bool = False) -> BlockSolution:
-    """Solve residuals (already in known terms) for variables (indices; symbols[i] their SX).
+    """Solve a block's residuals for its variables (indices; symbols[i] their SX).
 
-    `guarded`: the block holds differentiated constraints, whose regularity the
-    dummy-derivative selection guarantees (and the simulator monitors), so a
-    block linear in its unknowns is solved whatever its coefficients depend on.
+    Works on the *local* equations: variables solved earlier (inside or outside
+    the block) stay symbols, so every step costs the size of one equation, not
+    of everything substituted into it. `solved` lists (variable, expression) in
+    order — an expression may use variables solved before it and the tearing
+    variables; the caller composes them (`compose`). `guarded`: the block holds
+    differentiated constraints, whose regularity the dummy-derivative selection
+    guarantees (and the simulator monitors), so a block linear in its unknowns
+    is solved whatever its coefficients depend on.
     """
     n = len(variables)
     vec = ca.vertcat(*[symbols[v] for v in variables])
-    linear = False
     jac = ca.jacobian(ca.vertcat(*residuals), vec)
     constant_coefficients = all(s.element_hash() in parameter_hashes for s in ca.symvar(jac))
     if guarded and not constant_coefficients and not ca.depends_on(jac, vec):
         rhs = -ca.substitute(ca.vertcat(*residuals), vec, ca.DM.zeros(n))
         sol = rhs / jac if n == 1 else ca.solve(jac, rhs)
         return BlockSolution([(v, sol[k]) for k, v in enumerate(variables)], [], [], [])
-    if n > 1:
-        linear = constant_coefficients
+    linear = n > 1 and constant_coefficients
     unknown = {symbols[v].element_hash(): v for v in variables}
-    pending = list(range(n))
-    current = list(residuals)
     solved, tears, out_res, rows = [], [], [], []
     remaining = set(variables)
-    # which unknowns each equation holds, and which equations hold each unknown (kept up to date)
-    holds = [{unknown[s.element_hash()] for s in ca.symvar(r) if s.element_hash() in unknown} for r in current]
-    users = {v: set() for v in variables}
-    for k, vs in enumerate(holds):
-        for v in vs:
-            users[v].add(k)
+    holds = [{unknown[s.element_hash()] for s in ca.symvar(r) if s.element_hash() in unknown} for r in residuals]
 
     def unknowns_of(k):
         return [v for v in holds[k] if v in remaining]
 
-    open_eqs = set(pending)
+    open_eqs = set(range(n))
     while open_eqs:
         progress = False
         for k in sorted(open_eqs):
             unk = unknowns_of(k)
             if not unk:
-                out_res.append(current[k])
+                out_res.append(residuals[k])
                 rows.append(k)
                 open_eqs.discard(k)
                 progress = True
             elif len(unk) == 1:
-                sol = solve_linear_for(current[k], symbols[unk[0]], parameter_hashes)
+                sol = solve_linear_for(residuals[k], symbols[unk[0]], parameter_hashes)
                 if sol is None:
                     continue
-                v = unk[0]
-                solved.append((v, sol))
-                remaining.discard(v)
+                solved.append((unk[0], sol))
+                remaining.discard(unk[0])
                 open_eqs.discard(k)
-                brought = {unknown[s.element_hash()] for s in ca.symvar(sol) if s.element_hash() in unknown}
-                for j in users[v] & open_eqs:
-                    current[j] = ca.substitute(current[j], symbols[v], sol)
-                    holds[j] |= brought
-                    for b in brought:
-                        users[b].add(j)
                 progress = True
         if not progress:
             counts = {v: 0 for v in remaining}
@@ -113,14 +110,15 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
         # tearing did not come out square (should not happen for a matched block): keep it whole
         return BlockSolution([], list(variables), list(residuals), list(range(n)))
     if linear and tears:
-        # block elimination: the torn residuals are linear in the tearing variables; solve that
-        # small system symbolically and substitute back into the sequentially solved variables
+        # block elimination: composed, the torn residuals are linear in the tearing variables;
+        # solve that small system symbolically and substitute back, all in single passes
+        defs, res = compose([symbols[v] for v, _ in solved], [e for _, e in solved], out_res)
         t_vec = ca.vertcat(*[symbols[v] for v in tears])
-        r_vec = ca.vertcat(*out_res)
+        r_vec = ca.vertcat(*res)
         a = ca.jacobian(r_vec, t_vec)
         b = ca.substitute(r_vec, t_vec, ca.DM.zeros(len(tears)))
         t_sol = ca.solve(a, -b)
-        back = ca.substitute(ca.vertcat(*[e for _, e in solved]), t_vec, t_sol) if solved else []
-        return BlockSolution([(v, back[k]) for k, (v, _) in enumerate(solved)]
-                             + [(v, t_sol[k]) for k, v in enumerate(tears)], [], [], [])
+        back = ca.substitute(ca.vertcat(*defs), t_vec, t_sol) if defs else []
+        return BlockSolution([(v, t_sol[k]) for k, v in enumerate(tears)]
+                             + [(v, back[k]) for k, (v, _) in enumerate(solved)], [], [], [])
     return BlockSolution(solved, tears, out_res, rows)

@@ -407,6 +407,8 @@ class _Run:
         longest = max(1, n_int // 20)
         per_piece = 1
         density = 4                                   # monitor points per output interval
+        fraction = 1.0                                # of the first interval, when pieces must be short
+        grid_set = set(grid.tolist())
         t_cur, k = grid[0], 0                         # current time; next output index is k + 1
         while k < n_int:
             k_end = min(k + per_piece, n_int)
@@ -414,20 +416,26 @@ class _Run:
                 if grid[j] in event_at:
                     k_end = j
                     break
-            spans = [(t_cur, grid[k + 1])] + [(grid[j], grid[j + 1]) for j in range(k + 1, k_end)]
+            first_end = t_cur + fraction * (grid[k + 1] - t_cur)
+            spans = [(t_cur, first_end)] + [(grid[j], grid[j + 1]) for j in range(k + 1, k_end)]
             pts = [t_cur]
             is_output = [False]
             for a, b in spans:
                 pts.extend(np.linspace(a, b, density + 1)[1:])
-                is_output.extend([False] * (density - 1) + [True])
+                is_output.extend([False] * (density - 1) + [b == grid[k + 1] or b in grid_set])
             pts = np.array(pts)
             ok, message, xs, zs = self._dense(pts)
             if not ok and per_piece > 1:
                 per_piece //= 2                       # maybe a switch was due inside: look closer
                 continue
+            if not ok and self.monitor is not None and fraction > 1e-3:
+                fraction /= 4                         # a switch due within this interval: take part of it
+                density = min(256, density * 2)
+                continue
             if not ok:
                 self._recover(np.concatenate([[t_cur], grid[k + 1: k_end + 1]]), message)
                 return
+            fraction = 1.0
             ratios, switch_at = self._ratios(pts, xs, zs)
             crossing = self._first_crossing(pts, xs, zs, switch_at)
             if crossing is not None:

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.optimize import fsolve
 
-from mechnet.compile.tearing import solve_block
+from mechnet.compile.tearing import compose, solve_block
 from stage_scenes import evaluate
 
 
@@ -77,8 +77,10 @@ def test_a_nonlinear_cycle_is_torn_once(syms):
     assert len(sol.solved) == 2
     assert {v for v, _ in sol.solved} | set(sol.tears) == set(block)
     tear = s[sol.tears[0]]
+    # composed (solve_block's expressions are local: a later one may use an earlier solved variable),
     # the explicit part and the residual depend on the known x and the tear variable only
-    for expr in [e for _, e in sol.solved] + sol.residuals:
+    defs, res = compose([s[v] for v, _ in sol.solved], [e for _, e in sol.solved], sol.residuals)
+    for expr in defs + res:
         assert {v.element_hash() for v in ca.symvar(expr)} <= {tear.element_hash(), s[at["x"]].element_hash()}
 
 
@@ -87,6 +89,8 @@ def test_the_torn_system_reproduces_the_full_solution(syms):
     x0 = 2.0
     block = [at["z1"], at["z2"], at["z3"]]
     sol = solve_block(nonlinear_block(s, at), block, s, set())
+    defs, res = compose([s[v] for v, _ in sol.solved], [e for _, e in sol.solved], sol.residuals)
+    sol = type(sol)([(v, d) for (v, _), d in zip(sol.solved, defs)], sol.tears, res, sol.rows)
     tear = s[sol.tears[0]]
     x = s[at["x"]]
     # torn: one scalar Newton iteration on the residual (CasADi rootfinder)
