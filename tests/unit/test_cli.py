@@ -80,3 +80,13 @@ def test_bad_numbers_are_usage_errors(method):
     with pytest.raises(SystemExit) as info:
         main(["simulate", str(OSCILLATOR), method, "not-a-number"])
     assert info.value.code == 2
+
+
+def test_simulate_writes_csv_and_lists_time_events(tmp_path, capsys):
+    out = tmp_path / "drive.csv"
+    assert main(["simulate", str(EXAMPLES / "drive_line.py"), "--t-end", "1.0", "--csv", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "event at t = 0.5 s (time)" in text
+    lines = out.read_text().splitlines()
+    assert lines[0].startswith("# units: s,") and lines[1].startswith("time,")
+    assert "motor.w" in lines[1].split(",")
