@@ -15,7 +15,6 @@ from dataclasses import dataclass
 import casadi as ca
 import networkx as nx
 import numpy as np
-from networkx.algorithms import bipartite
 
 from ..core.errors import InitializationError
 
@@ -89,24 +88,34 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
     names = list(start)
     exprs = numeric(ca.vertcat(*[y[row[n]] for n in names])) if names else ca.SX(0, 1)
     pattern = _pattern(exprs, w)
-    coefs = ca.jacobian(exprs, w) if names and w.numel() else None
+    # every coefficient and every value at w = 0 in one evaluation (not one CasADi call per start value)
+    if names and w.numel():
+        jac = ca.jacobian(exprs, w)
+        at_zero = ca.Function("start_values_at_zero", [w], [exprs, jac])
+        offsets_dm, coefs_dm = at_zero(np.zeros(w.numel()))
+        offsets = np.asarray(offsets_dm, dtype=float).ravel()
+        coefs = coefs_dm
+        linear_cols = {k for k in range(len(names))
+                       if len(pattern[k]) == 1 and jac[k, pattern[k][0]].is_constant()}
+    else:
+        offsets = np.array([float(ca.evalf(exprs[k])) for k in range(len(names))])
+        coefs, linear_cols = None, set()
     for k, name in enumerate(names):
         value = start[name]
         expr = exprs[k]
         single = pattern[k]
         if not single:
-            const = float(ca.evalf(expr))
+            const = float(offsets[k])
             if abs(const - value) > 1e-9 * max(1.0, abs(value)):
                 raise InitializationError(
                     f"start value {name} = {value:g} cannot hold: the model fixes {name} = {const:g} "
                     f"(it is rigidly connected to a fixed or constant element); remove this start value")
             continue
-        if len(single) == 1:
+        if k in linear_cols:
             j = single[0]
-            coef = coefs[k, j]
-            if coef.is_constant() and float(ca.evalf(coef)) != 0.0:
-                offset = float(ca.evalf(ca.substitute(expr, w[j], 0.0)))
-                val = (value - offset) / float(ca.evalf(coef))
+            coef = float(coefs[k, j])
+            if coef != 0.0:
+                val = (value - float(offsets[k])) / coef
                 if j in implied:
                     other, other_val = implied[j]
                     if abs(other_val - val) > 1e-9 * max(1.0, abs(val)):
@@ -122,17 +131,17 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
         conditions.extend((f"der({n})", ode[k], 0.0) for k, n in enumerate(dae.x_names))
     # 2. structure: conditions and algebraic equations against states and algebraics
     rows_expr = [c[1] for c in conditions] + [alg[k] for k in range(nz)]
-    g = nx.Graph()
-    left = [("r", k) for k in range(len(rows_expr))]
-    g.add_nodes_from(left)
-    g.add_nodes_from(("w", j) for j in range(nx_ + nz))
     rows_pattern = _pattern(ca.vertcat(*rows_expr), w) if rows_expr else []
-    g.add_edges_from((("r", k), ("w", j)) for k, cols in enumerate(rows_pattern) for j in cols)
-    match = bipartite.hopcroft_karp_matching(g, top_nodes=left)
-    unmatched = [k for k in range(len(rows_expr)) if ("r", k) not in match]
+    row_of_w = _match(rows_pattern, nx_ + nz)
+    matched_rows = {k for k in row_of_w if k >= 0}
+    unmatched = [k for k in range(len(rows_expr)) if k not in matched_rows]
     if unmatched:
+        g = nx.Graph()
+        g.add_nodes_from(("r", k) for k in range(len(rows_expr)))
+        g.add_nodes_from(("w", j) for j in range(nx_ + nz))
+        g.add_edges_from((("r", k), ("w", j)) for k, cols in enumerate(rows_pattern) for j in cols)
         _too_many(conditions, unmatched, g, dae)
-    matched_w = {match[("r", k)][1] for k in range(len(rows_expr)) if ("r", k) in match}
+    matched_w = {j for j, k in enumerate(row_of_w) if k >= 0}
     free = [j for j in range(nx_) if j not in matched_w]
     names_w = list(dae.x_names) + list(dae.z_names)
     if free:
@@ -164,6 +173,19 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
     fixed = [c[0] for c in conditions[: len(conditions) - len(free)]]
     return InitialPoint(sol[:nx_], sol[nx_:], fixed, [names_w[j] for j in free],
                         float(np.max(np.abs(r))) if r.size else 0.0)
+
+
+def _match(rows_pattern, n_cols) -> np.ndarray:
+    """Maximum bipartite matching rows ↔ columns (SciPy, Hopcroft–Karp in C): for each column its row or -1."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import maximum_bipartite_matching
+
+    if not rows_pattern or n_cols == 0:
+        return np.full(n_cols, -1)
+    r = [k for k, cols in enumerate(rows_pattern) for _ in cols]
+    c = [j for cols in rows_pattern for j in cols]
+    graph = csr_matrix((np.ones(len(r)), (r, c)), shape=(len(rows_pattern), n_cols))
+    return maximum_bipartite_matching(graph, perm_type="row")
 
 
 def _pattern(exprs, w) -> list[list[int]]:

@@ -683,8 +683,10 @@ def _observe(dae, T, X, Z, plan, p, d) -> np.ndarray:
     U = np.tile(plan.constant.reshape(-1, 1), n)
     for k, (times, values) in plan.varying.items():
         U[k] = np.interp(T, times, values)
-    y = dae.observed.map(n)(T.reshape(1, -1), X.T, Z.T, U, np.tile(p.reshape(-1, 1), n),
-                            np.tile(d.reshape(-1, 1), n))
+    maps = dae.info.setdefault("_observed_maps", {})       # Function.map costs as much as evaluating
+    if n not in maps:
+        maps[n] = dae.observed.map(n)
+    y = maps[n](T.reshape(1, -1), X.T, Z.T, U, np.tile(p.reshape(-1, 1), n), np.tile(d.reshape(-1, 1), n))
     return np.asarray(y).T
 
 
