@@ -1,9 +1,11 @@
 """Simulation with SUNDIALS through `casadi.integrator`.
 
 States are integrated in scaled form (x = nominal · xs) so that one absolute
-tolerance means `atol · nominal` for each variable. Time is normalised over a
-segment (t = t0 + τ·h, τ ∈ [0, 1]) with t0 and h as parameters, so one
-integrator serves every segment with the same output pattern.
+tolerance means `atol · nominal` for each variable. Plain segments run on their
+own real-time grid (cached, so simulating the same grid again reuses it);
+monitored pieces and failure recovery use a time normalised over the piece
+(t = t0 + τ·h, τ ∈ [0, 1], t0 and h parameters), so one integrator serves every
+piece with the same output pattern.
 
 The run is split into segments at time events (signal steps, table knots)
 and, for long grids, into a fixed number of chunks (for the progress bar):
@@ -64,12 +66,24 @@ class _Integrators:
         self.base_key = (id(dae), plugin, tuple(sorted(extra.items())), rtol, atol, max_steps, inputs.key())
 
     def get(self, tau: tuple):
+        """Integrator over a normalised grid (t = t0 + τ·h): reusable for every segment of that pattern."""
         key = self.base_key + (tau,)
         if key not in self.cm._integrators:
             self.cm._integrators[key] = self._build(tau)
         return self.cm._integrators[key]
 
-    def _build(self, tau: tuple):
+    def get_real(self, points: tuple):
+        """Integrator over a fixed grid in real time: no time scaling in the right-hand side.
+
+        Used for plain segments (reused when the same grid is simulated again);
+        the parameters keep the [u; p; d; t0; h] layout, t0 and h unused.
+        """
+        key = self.base_key + ("real", points)
+        if key not in self.cm._integrators:
+            self.cm._integrators[key] = self._build(tuple(points[1:]), t0_real=points[0])
+        return self.cm._integrators[key]
+
+    def _build(self, tau: tuple, t0_real=None):
         """Parameters of the integrator: [u; p; d; t0; h]."""
         dae = self.dae
         sym = ca.MX if self.inputs.varying else ca.SX
@@ -78,20 +92,21 @@ class _Integrators:
         u, p, d = sym.sym("u", dae.u.numel()), sym.sym("p", dae.p.numel()), sym.sym("d", dae.d.numel())
         xn = ca.DM(list(dae.x_nominal)) if dae.x_nominal else ca.DM(0, 1)
         zn = ca.DM(list(dae.z_nominal)) if dae.z_nominal else ca.DM(0, 1)
-        t = t0 + s * h
+        t = t0 + s * h if t0_real is None else s
         if self.inputs.varying:
             interp = self.inputs.interpolants()
             u_t = ca.vertcat(*[interp[k](t) if k in interp else u[k] for k in range(dae.u.numel())])
         else:
             u_t = u
         args = (t, xn * xs, zn * zs, u_t, p, d)
-        spec = {"x": xs, "t": s, "p": ca.vertcat(u, p, d, t0, h), "ode": h * dae.ode(*args) / xn}
+        rate = dae.ode(*args) / xn
+        spec = {"x": xs, "t": s, "p": ca.vertcat(u, p, d, t0, h), "ode": h * rate if t0_real is None else rate}
         if dae.z.numel():
             spec["z"] = zs
             spec["alg"] = dae.alg(*args)
         opts = dict(self.extra, reltol=self.rtol, abstol=self.atol, max_num_steps=self.max_steps,
                     disable_internal_warnings=True, show_eval_warnings=False)
-        return ca.integrator("F", self.plugin, spec, 0.0, list(tau), opts)
+        return ca.integrator("F", self.plugin, spec, 0.0 if t0_real is None else float(t0_real), list(tau), opts)
 
 
 def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol: float = 1e-8,
@@ -368,8 +383,7 @@ class _Run:
     def _attempt(self, points) -> tuple[bool, str]:
         """Integrate over `points` in one call; on success append the outputs and move the state."""
         t0, h = points[0], points[-1] - points[0]
-        tau = tuple(float(v) for v in (points[1:] - t0) / h)
-        F = self.integrators.get(tau)
+        F = self.integrators.get_real(tuple(float(v) for v in points))
         xs = self.x / self.xn
         zs = self.z / self.zn if self.zn.size else np.zeros(0)
         try:
