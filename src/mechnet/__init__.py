@@ -9,6 +9,13 @@ from .simulate import IntegrationWarning, Result
 
 __version__ = "0.1.0"
 
+__all__ = ["Across", "CompileOptions", "CompiledModel", "Component", "ConnectError", "Connector", "Eq",
+           "FrozenModelError", "HigherIndexError", "InitializationError", "Input", "InputError",
+           "IntegrationError", "IntegrationWarning", "MechnetError", "Model", "NameConflictError", "Output",
+           "Param", "ParameterError", "Port", "Result", "SceneError", "State", "StructureError", "Through",
+           "UnbalancedModelError", "UnknownNameError", "Var", "When", "compile", "der", "nonnegative",
+           "positive", "time", "tunable"]
+
 
 def compile(model: Model, options: CompileOptions | None = None) -> CompiledModel:  # noqa: A001
     """Compile a model (same as `model.compile(options)`)."""

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import casadi as ca
 
+from ..core.errors import StructureError
+
 from .artifacts import AliasMap, FlatSystem, Selection, SemiExplicitDAE, StructureReport
 from .tearing import BlockSolution, compose, solve_block
 
@@ -109,7 +111,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     ode = _fn("ode", args, ode_expr, "xdot")
     algf = _fn("alg", args, alg_expr, "res")
     observed = _fn("observed", args, obs, "y")
-    zero, transitions = _events(flat, x_index, symbols, sub_from, sub_to, current, args, x)
+    zero, transitions = _events(flat, x_index, symbols, current, args, x)
     invariants = _fn("invariants", args, ca.SX(0, 1), "c")
     x_names = tuple(variables[i].name for i in x_index)
     z_names = tuple(variables[i].name for i in z_index)
@@ -158,12 +160,11 @@ def _count_observed_only(value, depends, flat, z_index, original) -> int:
     return sum(1 for i in value if i not in needed) + eliminated_outputs
 
 
-def _events(flat, x_index, symbols, sub_from, sub_to, current, args, x):
+def _events(flat, x_index, symbols, current, args, x):
     """zero(t,x,z,u,p,d) stacks the conditions; transition[i] maps the state to its value after event i."""
     if not flat.zero_crossings:
         return _fn("zero", args, ca.SX(0, 1), "g"), ()
     position = {s.element_hash(): i for i, s in enumerate(symbols)}
-    solved_now = {}
 
     def in_base(expr):
         used = [position[s.element_hash()] for s in ca.symvar(expr) if s.element_hash() in position]
@@ -172,7 +173,6 @@ def _events(flat, x_index, symbols, sub_from, sub_to, current, args, x):
             expr = ca.substitute(expr, ca.vertcat(*[a for a, _ in subs]), ca.vertcat(*[b for _, b in subs]))
         return expr
 
-    _ = (sub_from, sub_to, solved_now)
     g = ca.vertcat(*[in_base(zc.g) for zc in flat.zero_crossings])
     state_pos = {i: k for k, i in enumerate(x_index)}
     transitions = []
@@ -180,7 +180,6 @@ def _events(flat, x_index, symbols, sub_from, sub_to, current, args, x):
         x_plus = [x[k] for k in range(x.numel())]
         for i, value in zc.resets:
             if i not in state_pos:
-                from ..core.errors import StructureError
                 raise StructureError(f"{zc.label}: resets {flat.variables[i].name}, which is not a state of the "
                                      f"compiled model (it is computed from other variables); reset a state "
                                      f"({', '.join(flat.variables[j].name for j in x_index)})")

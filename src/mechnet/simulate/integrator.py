@@ -27,6 +27,8 @@ import numpy as np
 
 from ..core.errors import IntegrationError, MechnetError, ParameterError, UnknownNameError
 from .events import Event, breakpoints, chunk_bounds, output_grid
+from .reselection import Reselection, SelectionMonitor
+from .state_events import StateEvents
 from .initialize import initialize, solve_algebraic
 from .inputs import plan_inputs
 from .result import Result, unknown_name
@@ -201,7 +203,7 @@ def _resolve_params(dae, given: dict | None) -> np.ndarray:
     return values
 
 
-class _Run:
+class _Run(StateEvents, Reselection):
     """The segment loop: integrate between boundaries, restart at events, stop at a failure."""
 
     def __init__(self, cm, dae, plugin, extra, rtol, atol, max_steps, plan, p, d, init):
@@ -231,7 +233,7 @@ class _Run:
         return np.concatenate([self.plan.constant, self.p, self.d, [t0, h]])
 
     def integrate(self, grid, events, progress):
-        self.monitor = _SelectionMonitor.create(self.cm, self.dae)
+        self.monitor = SelectionMonitor.create(self.cm, self.dae)
         if self.monitor is not None:
             self._reselect(grid[0])
         self._record(grid[0])
@@ -279,94 +281,6 @@ class _Run:
                 bar.update(float(grid[b] - grid[bounds[bounds.index(b) - 1]]))
         if bar is not None:
             bar.close()
-
-    # ---- state events -------------------------------------------------------------------------
-
-    def _g(self, t, x, z):
-        return np.asarray(self.dae.zero(t, x, z, self._u_at(t), self.p, self.d)).ravel()
-
-    def _crossed(self, g_a, g_b):
-        """Which zero functions changed sign between two points, in their direction."""
-        dirs = np.array(self.dae.zero_directions)
-        falling = (g_a > 0) & (g_b <= 0)
-        rising = (g_a < 0) & (g_b >= 0)
-        return np.flatnonzero((falling & (dirs <= 0)) | (rising & (dirs >= 0)))
-
-    def _state_event(self, points, n_before):
-        """After a segment: find the first zero crossing between recorded points, locate and apply it.
-
-        Returns the event time (the segment must continue from there) or None.
-        """
-        if not self.dae.zero_labels:
-            return None
-        rows = range(n_before - 1, len(self.T))
-        G = [self._g(self.T[k], self.X[k], self.Z[k]) for k in rows]
-        for j in range(1, len(G)):
-            hit = self._crossed(G[j - 1], G[j])
-            if hit.size:
-                k = n_before - 1 + j - 1              # last recorded point before the crossing
-                t_a, x_a, z_a = self.T[k], self.X[k].copy(), self.Z[k].copy()
-                t_b = self.T[k + 1]
-                del self.T[k + 1:], self.X[k + 1:], self.Z[k + 1:], self.D[k + 1:]
-                return self._handle_event(t_a, x_a, z_a, t_b)
-        return None
-
-    def _advance_to(self, t_a, x_a, z_a, t):
-        F1 = self.integrators.get((1.0,))
-        out = F1(x0=x_a / self.xn, z0=z_a / self.zn if self.zn.size else np.zeros(0), p=self.pvec(t_a, t - t_a))
-        x = np.asarray(out["xf"]).ravel() * self.xn
-        z = np.asarray(out["zf"]).ravel() * self.zn if self.zn.size else np.zeros(0)
-        return x, z
-
-    def _handle_event(self, t_a, x_a, z_a, t_b):
-        """Illinois iteration on the earliest crossing, then the transition and re-initialisation."""
-        x_b, z_b = self._advance_to(t_a, x_a, z_a, t_b)
-        g_a, g_b = self._g(t_a, x_a, z_a), self._g(t_b, x_b, z_b)
-        hit = self._crossed(g_a, g_b)
-        i = int(hit[0])
-        if hit.size > 1:                              # earliest by the secant estimate
-            est = [t_a - g_a[h] * (t_b - t_a) / (g_b[h] - g_a[h]) for h in hit]
-            i = int(hit[int(np.argmin(est))])
-        lo, hi, f_lo, f_hi = t_a, t_b, g_a[i], g_b[i]
-        x_hi, z_hi = x_b, z_b
-        side = 0
-        tol = 1e-12 * max(1.0, abs(t_b))
-        for _ in range(200):
-            if hi - lo <= tol:
-                break
-            t = hi - f_hi * (hi - lo) / (f_hi - f_lo) if f_hi != f_lo else 0.5 * (lo + hi)
-            if not (lo < t < hi):
-                t = 0.5 * (lo + hi)
-            x_t, z_t = self._advance_to(t_a, x_a, z_a, t)
-            g_t = self._g(t, x_t, z_t)
-            crossed = self._crossed(g_a, g_t)
-            early = [h for h in crossed if h != i]
-            if early:                                 # another function crosses before t: it comes first
-                i = int(early[0])
-                lo, f_lo, hi, f_hi, x_hi, z_hi, side = t_a, g_a[i], t, g_t[i], x_t, z_t, 0
-                continue
-            if i in crossed:                          # the crossing lies in (lo, t]
-                hi, f_hi, x_hi, z_hi = t, g_t[i], x_t, z_t
-                if side == -1:
-                    f_lo *= 0.5                       # Illinois: the same end kept twice
-                side = -1
-            else:
-                lo, f_lo = t, g_t[i]
-                if side == 1:
-                    f_hi *= 0.5
-                side = 1
-        t_e = hi
-        self._record_at(t_e, x_hi, z_hi)
-        x_plus, _ = self.dae.transition[i](t_e, x_hi, z_hi, self._u_at(t_e), self.p, self.d)
-        self.x = np.asarray(x_plus).ravel()
-        self.z = solve_algebraic(self.dae, t_e, self.x, z_hi, self._u_at(t_e), self.p, self.d)
-        self._record_at(t_e, self.x, self.z)
-        self.events.append(Event(float(t_e), "state", self.dae.zero_labels[i]))
-        return t_e
-
-    def _record_at(self, t, x, z):
-        self.x, self.z = np.asarray(x, dtype=float).copy(), np.asarray(z, dtype=float).copy()
-        self._record(t)
 
     def _u_at(self, t):
         u = self.plan.constant.copy()
@@ -511,79 +425,6 @@ class _Run:
             else np.zeros((xf.shape[0], 0))
         return True, "", np.vstack([self.x, xf]), np.vstack([self.z.reshape(1, -1), zf])
 
-    def _first_crossing(self, pts, xs, zs, limit):
-        """Index of the last point before the first zero crossing among pts (up to `limit`), or None."""
-        if not self.dae.zero_labels:
-            return None
-        n = pts.size if limit is None else limit + 1
-        U = np.column_stack([self._u_at(t) for t in pts[:n]]) if self.plan.varying else \
-            np.tile(self.plan.constant.reshape(-1, 1), n)
-        G = np.asarray(self.dae.zero.map(n)(pts[:n].reshape(1, -1), xs[:n].T, zs[:n].T, U,
-                                            np.tile(self.p.reshape(-1, 1), n),
-                                            np.tile(self.d.reshape(-1, 1), n))).T
-        dirs = np.array(self.dae.zero_directions)
-        falling = (G[:-1] > 0) & (G[1:] <= 0) & (dirs <= 0)
-        rising = (G[:-1] < 0) & (G[1:] >= 0) & (dirs >= 0)
-        hits = np.flatnonzero(np.any(falling | rising, axis=1))
-        return int(hits[0]) if hits.size else None
-
-    def _event_density(self, density, out_interval):
-        """Monitor points close enough to resolve the spacing of recent state events (or stop at a Zeno point)."""
-        times = [e.t for e in self.events if e.kind == "state"]
-        if len(times) < 2:
-            return density
-        gap = times[-1] - times[-2]
-        needed = 8.0 * out_interval / max(gap, 1e-300)
-        if needed > 4096:
-            self.failure = IntegrationError(
-                f"event accumulation at t = {times[-1]:.9g} s: state events {gap:.3g} s apart, too close to "
-                f"resolve (chattering or a Zeno point such as a bouncing ball coming to rest); the result "
-                f"holds the solution up to there", t=float(times[-1]), step=float("nan"),
-                worst=self.events[-1].cause, solver_message="event accumulation")
-            return density
-        return int(min(4096, max(density, 2 ** int(np.ceil(np.log2(max(needed, 1.0)))))))
-
-    def _ratios(self, pts, xs, zs):
-        """Conditioning ratio (running / best selection) at each point, and the first point to switch at."""
-        n = pts.size
-        if self.monitor is None:
-            return np.ones(n), None
-        U = np.column_stack([self._u_at(t) for t in pts]) if self.plan.varying else \
-            np.tile(self.plan.constant.reshape(-1, 1), n)
-        Y = np.asarray(self.dae.observed.map(n)(pts.reshape(1, -1), xs.T, zs.T, U,
-                                                np.tile(self.p.reshape(-1, 1), n),
-                                                np.tile(self.d.reshape(-1, 1), n))).T
-        ratios = np.ones(n)
-        for m in range(n):
-            quality, switch = self.monitor.better(Y[m], probe=True)
-            ratios[m] = 1.0 if quality is None else quality
-            if switch and m > 0:
-                return ratios[: m + 1], m
-        return ratios, None
-
-    def _reselect(self, t):
-        """Switch to a better state selection when the running one degrades (hysteresis factor 2).
-
-        Returns the quality ratio (running / best) after the check.
-        """
-        u = self._u_at(t)
-        values = np.asarray(self.dae.observed(t, self.x, self.z, u, self.p, self.d)).ravel()
-        quality, switch = self.monitor.better(values)
-        if switch is None:
-            return quality
-        dummies, new_dae, cause = switch
-        named = dict(zip(self.dae.observed_names, values))
-        x_new = np.array([named.get(n, 0.0) for n in new_dae.x_names])
-        z_guess = np.array([named.get(n, 0.0) for n in new_dae.z_names])
-        self._use(new_dae)
-        self.x = x_new
-        self.z = solve_algebraic(new_dae, t, x_new, z_guess, u, self.p, self.d)
-        self.monitor.current = dummies
-        self.events.append(Event(float(t), "reselection", cause))
-        if self.T and self.T[-1] == t:
-            self.X[-1], self.Z[-1], self.D[-1] = self.x.copy(), self.z.copy(), new_dae
-        return 1.0
-
     def _restart_at(self, t, cause):
         """A time event: states are continuous; algebraic variables are re-solved at the new time."""
         if self.zn.size:
@@ -634,60 +475,6 @@ class _Run:
             f"worst variable: {worst}; solver: {solver}. The result holds the solution up to t = {t_good:.6g} s",
             t=float(t_good), step=step, worst=worst, solver_message=solver)
         self.stats["failed_at"] = float(t_good)
-
-
-class _SelectionMonitor:
-    """Watches the conditioning of the dependent block and proposes a better selection."""
-
-    HYSTERESIS = 0.5
-
-    def __init__(self, cm, factory, current):
-        self.cm, self.factory, self.current = cm, factory, current
-        self.names = factory.names
-
-    @classmethod
-    def create(cls, cm, dae):
-        factory = cm.selection_factory
-        if factory is None:
-            return None
-        index = cm.stages["index"]
-        if not any(len(level.candidates) > len(level.chosen) for level in index.levels):
-            return None
-        if not factory.can_degrade():
-            return None
-        current = frozenset(factory.names.index(n) for n in index.dummies)
-        if dae is not cm.dae:
-            current = next((k for k, v in cm._selections.items() if v is dae), current)
-        return cls(cm, factory, current)
-
-    def better(self, observed_values, probe=False):
-        """(quality, switch): the running selection's quality in [0, 1] (1: ideal, 0: singular) and
-        None, or — when another selection is better by the hysteresis factor — (dummies, compiled
-        selection, cause); when probing, just True."""
-        dae = self.cm.dae
-        named = dict(zip(dae.observed_names, observed_values))
-        values = np.array([named.get(n, 0.0) for n in self.names])
-        try:
-            best, levels = self.factory.choose(values)
-        except MechnetError:
-            return None, None
-        q_now = self.factory.quality(self.factory.levels_for(self.current), values)
-        if best == self.current:
-            return q_now, None
-        q_best = self.factory.quality(levels, values)
-        if q_now >= self.HYSTERESIS * q_best:
-            return q_now, None
-        if probe:
-            return q_now, True
-        old = _state_names(self.factory, self.current)
-        new = _state_names(self.factory, best)
-        cause = (f"dependent block conditioning {q_now:.2g} vs {q_best:.2g}: states "
-                 f"{', '.join(old)} -> {', '.join(new)}")
-        return q_now, (best, self.cm.selection(best), cause)
-
-
-def _state_names(factory, dummies) -> list:
-    return sorted(factory.names[i] for i, j in factory.graph.der.items() if j not in dummies)
 
 
 def _observe(dae, T, X, Z, plan, p, d) -> np.ndarray:

@@ -1,0 +1,117 @@
+"""Dynamic state selection: watch the dependent block, switch states before it turns singular.
+
+Index reduction chooses dummy derivatives at the start point; as a mechanism
+moves, that choice can degrade (a pendulum's dependent coordinate near its
+turning point). The monitor evaluates, at dense output points, the quality of
+the running choice (|det| of the chosen constraint columns over the Hadamard
+bound: 1 ideal, 0 singular) against the best choice there; when the best wins
+by the hysteresis factor the loop cuts the piece, compiles (or reuses) the
+other selection and restarts from the consistent point — a "reselection"
+event.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.errors import MechnetError
+from .events import Event
+from .initialize import solve_algebraic
+
+
+class Reselection:
+    """Mixin of the simulation loop (`integrator._Run`): quality along a piece and the switch."""
+
+    def _ratios(self, pts, xs, zs):
+        """Conditioning ratio (running / best selection) at each point, and the first point to switch at."""
+        n = pts.size
+        if self.monitor is None:
+            return np.ones(n), None
+        U = np.column_stack([self._u_at(t) for t in pts]) if self.plan.varying else \
+            np.tile(self.plan.constant.reshape(-1, 1), n)
+        Y = np.asarray(self.dae.observed.map(n)(pts.reshape(1, -1), xs.T, zs.T, U,
+                                                np.tile(self.p.reshape(-1, 1), n),
+                                                np.tile(self.d.reshape(-1, 1), n))).T
+        ratios = np.ones(n)
+        for m in range(n):
+            quality, switch = self.monitor.better(Y[m], probe=True)
+            ratios[m] = 1.0 if quality is None else quality
+            if switch and m > 0:
+                return ratios[: m + 1], m
+        return ratios, None
+
+    def _reselect(self, t):
+        """Switch to a better state selection when the running one degrades (hysteresis factor 2).
+
+        Returns the quality ratio (running / best) after the check.
+        """
+        u = self._u_at(t)
+        values = np.asarray(self.dae.observed(t, self.x, self.z, u, self.p, self.d)).ravel()
+        quality, switch = self.monitor.better(values)
+        if switch is None:
+            return quality
+        dummies, new_dae, cause = switch
+        named = dict(zip(self.dae.observed_names, values))
+        x_new = np.array([named.get(n, 0.0) for n in new_dae.x_names])
+        z_guess = np.array([named.get(n, 0.0) for n in new_dae.z_names])
+        self._use(new_dae)
+        self.x = x_new
+        self.z = solve_algebraic(new_dae, t, x_new, z_guess, u, self.p, self.d)
+        self.monitor.current = dummies
+        self.events.append(Event(float(t), "reselection", cause))
+        if self.T and self.T[-1] == t:
+            self.X[-1], self.Z[-1], self.D[-1] = self.x.copy(), self.z.copy(), new_dae
+        return 1.0
+
+
+class SelectionMonitor:
+    """Watches the conditioning of the dependent block and proposes a better selection."""
+
+    HYSTERESIS = 0.5
+
+    def __init__(self, cm, factory, current):
+        self.cm, self.factory, self.current = cm, factory, current
+        self.names = factory.names
+
+    @classmethod
+    def create(cls, cm, dae):
+        factory = cm.selection_factory
+        if factory is None:
+            return None
+        index = cm.stages["index"]
+        if not any(len(level.candidates) > len(level.chosen) for level in index.levels):
+            return None
+        if not factory.can_degrade():
+            return None
+        current = frozenset(factory.names.index(n) for n in index.dummies)
+        if dae is not cm.dae:
+            current = next((k for k, v in cm._selections.items() if v is dae), current)
+        return cls(cm, factory, current)
+
+    def better(self, observed_values, probe=False):
+        """(quality, switch): the running selection's quality in [0, 1] (1: ideal, 0: singular) and
+        None, or — when another selection is better by the hysteresis factor — (dummies, compiled
+        selection, cause); when probing, just True."""
+        dae = self.cm.dae
+        named = dict(zip(dae.observed_names, observed_values))
+        values = np.array([named.get(n, 0.0) for n in self.names])
+        try:
+            best, levels = self.factory.choose(values)
+        except MechnetError:
+            return None, None
+        q_now = self.factory.quality(self.factory.levels_for(self.current), values)
+        if best == self.current:
+            return q_now, None
+        q_best = self.factory.quality(levels, values)
+        if q_now >= self.HYSTERESIS * q_best:
+            return q_now, None
+        if probe:
+            return q_now, True
+        old = _state_names(self.factory, self.current)
+        new = _state_names(self.factory, best)
+        cause = (f"dependent block conditioning {q_now:.2g} vs {q_best:.2g}: states "
+                 f"{', '.join(old)} -> {', '.join(new)}")
+        return q_now, (best, self.cm.selection(best), cause)
+
+
+def _state_names(factory, dummies) -> list:
+    return sorted(factory.names[i] for i, j in factory.graph.der.items() if j not in dummies)
