@@ -255,13 +255,14 @@ class SelectionFactory:
         self._args = (all_syms, flat.time, params)
         self._jacobians = {}
 
-    def jacobian(self, rows: tuple, cols: tuple, values) -> np.ndarray:
+    def jacobian(self, rows: tuple, cols: tuple, values, params=None) -> np.ndarray:
         key = (rows, cols)
         if key not in self._jacobians:
             jac = ca.jacobian(ca.vertcat(*[self.equations[e].residual for e in rows]),
                               ca.vertcat(*[self.symbols[v] for v in cols]))
             self._jacobians[key] = ca.Function("dd_jacobian", list(self._args), [jac])
-        return np.asarray(self._jacobians[key](values, 0.0, self._pvals), dtype=float)
+        pvals = self._pvals if params is None else params
+        return np.asarray(self._jacobians[key](values, 0.0, pvals), dtype=float)
 
     def can_degrade(self) -> bool:
         """False when every selection Jacobian is constant (a gear): the choice never needs revisiting."""
@@ -284,7 +285,7 @@ class SelectionFactory:
             v = self.graph.antider[v]
         return _DUMMY_PREFERENCE.get(self.variables[v].priority, 2)
 
-    def choose(self, values):
+    def choose(self, values, params=None):
         """Mattsson–Söderlind, highest level first; columns by state priority, then numerically."""
         graph, equations = self.graph, self.equations
         top = [e for e in range(len(equations)) if e not in graph.diff]
@@ -295,7 +296,7 @@ class SelectionFactory:
             cand = [v for v in candidates if any(v in graph.inc[e] for e in h)]
             if len(cand) < len(h):
                 raise StructureError(_no_selection(h, equations))
-            J = self.jacobian(tuple(h), tuple(cand), values)
+            J = self.jacobian(tuple(h), tuple(cand), values, params)
             chosen = _pick_columns(J, cand, len(h), self.base_priority, self.options.rank_tolerance)
             if chosen is None:
                 raise StructureError(_no_selection(h, equations))
@@ -306,16 +307,21 @@ class SelectionFactory:
             candidates = [graph.antider[v] for v in chosen if graph.antider[v] in graph.antider]
         return frozenset(dummies), levels
 
-    def quality(self, levels, values) -> float:
-        """|det| of the chosen columns over the Hadamard bound of all candidate rows: 1 ideal, 0 singular."""
+    def quality(self, levels, values, signed: bool = False, params=None) -> float:
+        """|det| of the chosen columns over the Hadamard bound of all candidate rows: 1 ideal, 0 singular.
+
+        `signed` keeps the sign of the determinant, so a pass through a singular
+        configuration between two evaluations shows as a sign change.
+        """
         q = 1.0
         for level in levels:
-            J = self.jacobian(tuple(level.equations), tuple(level.candidates), values)
+            J = self.jacobian(tuple(level.equations), tuple(level.candidates), values, params)
             rows = np.linalg.norm(J, axis=1)
             if np.any(rows == 0) or len(level.chosen) != J.shape[0]:
                 return 0.0
             cols = [level.candidates.index(v) for v in level.chosen]
-            q *= abs(np.linalg.det(J[:, cols])) / float(np.prod(rows))
+            det = np.linalg.det(J[:, cols])
+            q *= (det if signed else abs(det)) / float(np.prod(rows))
         return q
 
     def levels_for(self, dummies):

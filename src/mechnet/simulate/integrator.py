@@ -363,12 +363,23 @@ class _Run(StateEvents, Reselection):
             if not ok:
                 self._recover(np.concatenate([[t_cur], grid[k + 1: k_end + 1]]), message)
                 return
-            fraction = 1.0
+            self.refine_at = None
             ratios, switch_at = self._ratios(pts, xs, zs)
-            crossing = self._first_crossing(pts, xs, zs, switch_at)
+            limit = switch_at if self.refine_at is None else self.refine_at
+            crossing = self._first_crossing(pts, xs, zs, limit)
             if crossing is not None:
                 switch_at = None
-            stop = crossing if crossing is not None else (switch_at if switch_at is not None else len(pts) - 1)
+            if self.refine_at is not None and crossing is None:
+                # the monitor was too coarse for this stretch: keep what is safe, look closer from there
+                stop = self.refine_at
+                density = min(1024, density * 4)
+                per_piece = 1
+                if stop == 0:
+                    fraction = max(fraction / 4, 1e-6)
+                    continue
+            else:
+                stop = crossing if crossing is not None else (switch_at if switch_at is not None else len(pts) - 1)
+            fraction = 1.0
             for m in range(1, stop + 1):
                 if is_output[m]:
                     self.x, self.z = xs[m], zs[m]
@@ -404,6 +415,10 @@ class _Run(StateEvents, Reselection):
                 density *= 2
             elif worst < 0.01 and density > 1 and self.monitor is not None:
                 density //= 2
+            # never coarser than about two solver steps: what the solver resolves, the monitor sees
+            h_solver = self.stats.get("hlast", 0.0)
+            if np.isfinite(h_solver) and h_solver > 0:
+                density = int(min(1024, max(density, np.ceil((grid[1] - grid[0]) / (2.0 * h_solver)))))
 
     def _dense(self, pts):
         """One integrator call over pts (unrecorded); returns the states at every point."""

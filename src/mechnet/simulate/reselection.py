@@ -32,9 +32,15 @@ class Reselection:
                                                 np.tile(self.p.reshape(-1, 1), n),
                                                 np.tile(self.d.reshape(-1, 1), n))).T
         ratios = np.ones(n)
+        signs = np.ones(n)
         for m in range(n):
-            quality, switch = self.monitor.better(Y[m], probe=True)
-            ratios[m] = 1.0 if quality is None else quality
+            quality, switch = self.monitor.better(Y[m], probe=True, params=self.p)
+            ratios[m] = 1.0 if quality is None else abs(quality)
+            signs[m] = 1.0 if quality is None else np.sign(quality)
+            # monitored too coarsely: the running choice went through (or too near) its singular point
+            if m > 0 and (signs[m] != signs[m - 1] or (switch and ratios[m - 1] - ratios[m] > 0.25)):
+                self.refine_at = m - 1
+                return ratios[: m], None
             if switch and m > 0:
                 return ratios[: m + 1], m
         return ratios, None
@@ -46,7 +52,7 @@ class Reselection:
         """
         u = self._u_at(t)
         values = np.asarray(self.dae.observed(t, self.x, self.z, u, self.p, self.d)).ravel()
-        quality, switch = self.monitor.better(values)
+        quality, switch = self.monitor.better(values, params=self.p)
         if switch is None:
             return quality
         dummies, new_dae, cause = switch
@@ -87,7 +93,7 @@ class SelectionMonitor:
             current = next((k for k, v in cm._selections.items() if v is dae), current)
         return cls(cm, factory, current)
 
-    def better(self, observed_values, probe=False):
+    def better(self, observed_values, probe=False, params=None):
         """(quality, switch): the running selection's quality in [0, 1] (1: ideal, 0: singular) and
         None, or — when another selection is better by the hysteresis factor — (dummies, compiled
         selection, cause); when probing, just True."""
@@ -95,22 +101,27 @@ class SelectionMonitor:
         named = dict(zip(dae.observed_names, observed_values))
         values = np.array([named.get(n, 0.0) for n in self.names])
         try:
-            best, levels = self.factory.choose(values)
+            best, levels = self.factory.choose(values, params)
         except MechnetError:
             return None, None
-        q_now = self.factory.quality(self.factory.levels_for(self.current), values)
+        q_signed = self.factory.quality(self.factory.levels_for(self.current), values, signed=True, params=params)
+        q_now = abs(q_signed)
         if best == self.current:
-            return q_now, None
-        q_best = self.factory.quality(levels, values)
+            return q_signed, None
+        q_best = self.factory.quality(levels, values, params=params)
         if q_now >= self.HYSTERESIS * q_best:
-            return q_now, None
+            return q_signed, None
         if probe:
-            return q_now, True
+            return q_signed, True
+        try:
+            other = self.cm.selection(best)
+        except MechnetError:
+            return q_signed, None              # that choice cannot hold the model's resets: keep going
         old = _state_names(self.factory, self.current)
         new = _state_names(self.factory, best)
         cause = (f"dependent block conditioning {q_now:.2g} vs {q_best:.2g}: states "
                  f"{', '.join(old)} -> {', '.join(new)}")
-        return q_now, (best, self.cm.selection(best), cause)
+        return q_now, (best, other, cause)
 
 
 def _state_names(factory, dummies) -> list:

@@ -62,6 +62,10 @@ class StateEvents:
         x_b, z_b = self._advance_to(t_a, x_a, z_a, t_b)
         g_a, g_b = self._g(t_a, x_a, z_a), self._g(t_b, x_b, z_b)
         hit = self._crossed(g_a, g_b)
+        if not hit.size:
+            # a grazing crossing that the re-integration does not reproduce: no event, carry on from t_b
+            self.x, self.z = x_b, z_b
+            return t_b
         i = int(hit[0])
         if hit.size > 1:                              # earliest by the secant estimate
             est = [t_a - g_a[h] * (t_b - t_a) / (g_b[h] - g_a[h]) for h in hit]
@@ -96,11 +100,17 @@ class StateEvents:
                 side = 1
         t_e = hi
         self._record_at(t_e, x_hi, z_hi)
-        x_plus, _ = self.dae.transition[i](t_e, x_hi, z_hi, self._u_at(t_e), self.p, self.d)
-        self.x = np.asarray(x_plus).ravel()
-        self.z = solve_algebraic(self.dae, t_e, self.x, z_hi, self._u_at(t_e), self.p, self.d)
+        # every function that crossed by t_e fires, in index order (two balls landing at once)
+        fired = [int(h) for h in self._crossed(g_a, self._g(t_e, x_hi, z_hi))] or [i]
+        x_now, u_e = np.asarray(x_hi, dtype=float), self._u_at(t_e)
+        for h in fired:
+            x_plus, _ = self.dae.transition[h](t_e, x_now, z_hi, u_e, self.p, self.d)
+            x_now = np.asarray(x_plus).ravel()
+        self.x = x_now
+        self.z = solve_algebraic(self.dae, t_e, self.x, z_hi, u_e, self.p, self.d)
         self._record_at(t_e, self.x, self.z)
-        self.events.append(Event(float(t_e), "state", self.dae.zero_labels[i]))
+        for h in fired:
+            self.events.append(Event(float(t_e), "state", self.dae.zero_labels[h]))
         return t_e
 
     def _record_at(self, t, x, z):
