@@ -157,8 +157,10 @@ def linearize(cm, x_op=None, u_op=None, *, t: Optional[float] = None, params: Op
         x_given, z_given, u_given = dict(x_op.x), dict(x_op.z), dict(x_op.u)
         p_given, t_given = dict(x_op.params), x_op.t
     elif isinstance(x_op, Result):
-        x_given = x_op.final_state
-        z_given = {n: float(x_op.z[-1, k]) for k, n in enumerate(dae.z_names)} if x_op.z.size else {}
+        # the compiled model's own states and algebraics at the final point (whatever selection ran there)
+        final = x_op.final_values
+        x_given = {n: final[n] for n in dae.x_names if n in final}
+        z_given = {n: final[n] for n in dae.z_names if n in final}
         t_given = x_op.final_time
     elif x_op is None:
         x_given = {}

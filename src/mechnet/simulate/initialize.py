@@ -2,9 +2,10 @@
 
 The initial system is the algebraic equations plus one equation per fixed
 start value (whatever variable it names: a state, an alias, a connector
-variable). It must be square: a fixed value that competes with another for the
-same state is reported by name; states that no fixed value reaches take their
-guess (their declared start unless the user gave one) and are listed as free.
+variable), or der(x) = 0 for a steady start. It must be square: a fixed value
+that competes with another for the same state is reported by name, and states
+that no fixed value reaches are reported as free (an error, DESIGN.md).
+Guesses (and the fixed values themselves) seed the Newton iteration.
 The system is solved with a damped Newton method built from CasADi functions.
 """
 from __future__ import annotations
@@ -151,6 +152,8 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
             f"or use simulate(steady_state=True)")
     # 3. (kept for the Newton start) guesses
     w0 = np.array([float(guess.get(n, dae.guesses.get(n, 0.0))) for n in names_w])
+    for j, (_, val) in implied.items():       # a fixed value is the best start for Newton too
+        w0[j] = val
     for j in free:
         rows_expr.append(w[j])
         conditions.append((names_w[j], w[j], w0[j]))

@@ -25,7 +25,7 @@ import warnings
 import casadi as ca
 import numpy as np
 
-from ..core.errors import IntegrationError, MechnetError, ParameterError, UnknownNameError
+from ..core.errors import InitializationError, IntegrationError, MechnetError, ParameterError, UnknownNameError
 from .events import Event, breakpoints, chunk_bounds, output_grid
 from .reselection import Reselection, SelectionMonitor
 from .state_events import StateEvents
@@ -114,7 +114,8 @@ class _Integrators:
 def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol: float = 1e-8,
              method: str = "auto", n_out: int | None = None, t_out=None, params: dict | None = None,
              inputs: dict | None = None, start: dict | None = None, guess: dict | None = None,
-             max_steps: int = 20_000, progress: bool | None = None, steady_state: bool = False) -> Result:
+             max_steps: int = 20_000, progress: bool | None = None, steady_state: bool = False,
+             continue_from: Result | None = None) -> Result:
     """Integrate the compiled model from `t_start` to `t_end`.
 
     `start` fixes values (any dotted name), `guess` only seeds the Newton
@@ -123,9 +124,19 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     (every state; fixed start values then over-specify). `progress=None` shows a bar when a long grid
     (≥ 1000 points) takes more than a second. A solver failure returns the
     partial result with `result.failure` set (and a warning); it does not raise.
+    `continue_from=res` continues a run: it starts at res's final time from its
+    final states (fixed) with every other final value as a guess, so dependent
+    coordinates stay on their branch; the components' own start values do not apply.
     """
     dae = cm.dae
     method, plugin, extra = _plugin(dae, method)
+    t_start, t_end = _check_time(t_start, "t_start"), _check_time(t_end, "t_end")
+    rtol, atol = _check_tolerance(rtol, "rtol"), _check_tolerance(atol, "atol")
+    if continue_from is not None:
+        if not isinstance(continue_from, Result):
+            raise MechnetError(f"continue_from takes a Result, got {type(continue_from).__name__}")
+        t_start = continue_from.final_time
+        guess = {**continue_from.final_values, **(guess or {})}
     if t_out is not None:
         grid = np.asarray(t_out, dtype=float)
         if grid.ndim != 1 or grid.size < 2 or np.any(np.diff(grid) <= 0) or not np.all(np.isfinite(grid)):
@@ -134,18 +145,21 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     else:
         if not (np.isfinite(t_end) and np.isfinite(t_start) and t_end > t_start):
             raise MechnetError(f"t_end = {t_end} must be finite and greater than t_start = {t_start}")
+        if n_out is not None and (not isinstance(n_out, (int, np.integer)) or n_out < 2):
+            raise MechnetError(f"n_out = {n_out!r} must be a whole number of at least 2 output points")
         grid = np.linspace(t_start, t_end, int(n_out or 501))
     plan = plan_inputs(dae, inputs, t_start, t_end, max(grid.size, 2001))
     p = _resolve_params(dae, params)
     d = np.array(dae.d_value, dtype=float)
-    starts = dict(dae.starts)
+    starts = dict(continue_from.final_state) if continue_from is not None else dict(dae.starts)
     for name, value in (start or {}).items():
         if name not in dae.observed_names:
             raise unknown_name(name, dae.observed_names, "start value for")
-        starts[name] = float(value)
-    for name in (guess or {}):
+        starts[name] = _check_value(value, f"start value {name}")
+    for name, value in (guess or {}).items():
         if name not in dae.observed_names:
             raise unknown_name(name, dae.observed_names, "guess for")
+        _check_value(value, f"guess {name}")
 
     wall = _time.perf_counter()
     init = initialize(dae, t_start, plan.constant, p, starts, guess or {}, steady_state)
@@ -180,6 +194,33 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
         run.failure.result = result
         warnings.warn(str(run.failure), IntegrationWarning, stacklevel=3)
     return result
+
+
+def _check_time(value, what: str) -> float:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise MechnetError(f"{what} = {value!r} must be a number of seconds") from None
+    if not np.isfinite(number):
+        raise MechnetError(f"{what} = {number} must be finite")
+    return number
+
+
+def _check_tolerance(value, what: str) -> float:
+    number = _check_time(value, what) if not isinstance(value, str) else None
+    if number is None or not number > 0:
+        raise MechnetError(f"{what} = {value!r} must be a positive number")
+    return number
+
+
+def _check_value(value, what: str) -> float:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InitializationError(f"{what} = {value!r} is not a number") from None
+    if not np.isfinite(number):
+        raise InitializationError(f"{what} = {number} is not finite")
+    return number
 
 
 def _resolve_params(dae, given: dict | None) -> np.ndarray:

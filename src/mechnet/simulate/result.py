@@ -53,8 +53,17 @@ class Result:
 
     @property
     def final_state(self) -> dict:
-        """State values at the last time point: continue with `simulate(t_end, t_start=res.final_time, start=res.final_state)`."""
+        """State values at the last time point (of the selection running there).
+
+        To continue a run use `cm.simulate(t_end, continue_from=res)`: it fixes
+        these and guesses everything else from `final_values`.
+        """
         return {n: float(self.x[-1, k]) for k, n in enumerate(self.state_names)}
+
+    @property
+    def final_values(self) -> dict:
+        """Every dotted name's value at the last time point."""
+        return {n: float(v) for n, v in zip(self.names, self.values[-1])}
 
     def to_csv(self, path, names=None) -> None:
         """Write time and the named variables (default: every name) as CSV with a units row comment."""
