@@ -33,7 +33,9 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
          options: EmitOptions = EmitOptions()) -> SemiExplicitDAE:
     variables = flat.variables
     symbols = [v.symbol for v in variables]
-    param_hashes = {p.symbol.element_hash() for p in flat.parameters}
+    # parameters whose check forbids zero: a coefficient made of them cannot vanish
+    param_hashes = {p.symbol.element_hash() for p in flat.parameters
+                    if p.declaration is None or p.declaration.check(0.0) is not None}
     value: dict[int, ca.SX] = {}          # variable index -> expression in base symbols
     z_index: list[int] = []
     alg: list[ca.SX] = []

@@ -81,7 +81,12 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
     whens = []
     for comp in components:
         label = f"{comp.path} ({type(comp).__name__})"
-        for k, when in enumerate(comp.events() or []):
+        produced = comp.events() or []
+        if not isinstance(produced, (list, tuple)):
+            raise StructureError(f"{label}: events() must return a list of When(...), got {produced!r}")
+        for k, when in enumerate(produced):
+            if not hasattr(when, "condition"):
+                raise StructureError(f"{label}, event {k + 1}: {when!r} is not a When(...)")
             whens.append((comp, k, when, label))
         for number, element, residual, doc, smooth in comp.residuals():
             suffix = f"[{element}]" if element is not None else ""
@@ -128,9 +133,16 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
         for target, value in (when.reset or {}).items():
             target = ca.SX(target)
             if not (target.is_scalar() and target.is_symbolic()) or target.element_hash() not in by_hash:
-                raise StructureError(f"{label}, event {k + 1}: reset targets must be the component's own "
-                                     f"variables (got {target})")
-            resets.append((by_hash[target.element_hash()], ca.SX(value)))
+                raise StructureError(f"{label}, event {k + 1}: reset targets must be variables of the model "
+                                     f"(got {target})")
+            value = ca.SX(value)
+            if value.numel() != 1:
+                raise StructureError(f"{label}, event {k + 1}: the new value of {target} must be a scalar")
+            for s in ca.symvar(value):
+                if s.element_hash() not in by_hash and s.element_hash() not in skip:
+                    raise StructureError(f"{label}, event {k + 1}: the new value of {target} uses {s.name()!r}, "
+                                         f"which is not a variable of the model")
+            resets.append((by_hash[target.element_hash()], value))
         try:
             direction = when.sign()
         except ValueError as exc:

@@ -27,7 +27,8 @@ class BlockSolution:
 
 
 def solvable_coefficient(coef: ca.SX, known_symbols: set) -> bool:
-    """A coefficient that cannot vanish: a non-zero number, or built from parameters only."""
+    """A coefficient that cannot vanish: a non-zero number, or built only from parameters whose
+    check forbids zero (`known_symbols`; emit passes those)."""
     if coef.is_constant():
         return float(ca.evalf(coef)) != 0.0
     return all(s.element_hash() in known_symbols for s in ca.symvar(coef))

@@ -56,8 +56,17 @@ def plan_inputs(dae, given: dict | None, t_start: float, t_end: float, n_samples
             if not np.isfinite(v):
                 raise InputError(f"input {name!r} = {v}: must be finite")
             constant[k] = v
+        elif isinstance(value, str):
+            raise InputError(f"input {name!r} = {value!r}: give a number, a callable f(t), a (times, values) "
+                             f"pair or an N×2 array")
         else:
             times, values = _table(name, value)
+            # held constant outside the table, for the integrator as for the results (CasADi's
+            # interpolant would extrapolate linearly)
+            if times[0] > t_start:
+                times, values = np.concatenate([[t_start], times]), np.concatenate([[values[0]], values])
+            if times[-1] < t_end:
+                times, values = np.concatenate([times, [t_end]]), np.concatenate([values, [values[-1]]])
             varying[k] = (times, values)
     for k, (times, values) in varying.items():
         constant[k] = float(np.interp(t_start, times, values))
