@@ -99,6 +99,9 @@ class Model:
         if not isinstance(connector, Connector):
             raise ConnectError(f"model {self.name!r}: expose({name!r}, ...) takes a connector such as "
                                f"inertia.flange_a, got {connector!r}")
+        if name in self._exposed or name in self._items or hasattr(type(self), name):
+            raise NameConflictError(f"model {self.name!r}: cannot expose a connector as {name!r}: the name is "
+                                    f"already taken (an exposed connector, a component or a Model method)")
         if not self.owns(connector.owner):
             raise ConnectError(f"model {self.name!r}: cannot expose {connector.label}: not part of this model")
         self._exposed[name] = connector

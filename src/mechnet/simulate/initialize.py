@@ -109,8 +109,9 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
             const = float(offsets[k])
             if abs(const - value) > 1e-9 * max(1.0, abs(value)):
                 raise InitializationError(
-                    f"start value {name} = {value:g} cannot hold: the model fixes {name} = {const:g} "
-                    f"(it is rigidly connected to a fixed or constant element); remove this start value")
+                    f"start value {name} = {value:g} cannot hold: at the start the model fixes {name} = "
+                    f"{const:g} (a fixed element, a prescribed motion or an input determines it); remove this "
+                    f"start value")
             continue
         if k in linear_cols:
             j = single[0]

@@ -138,9 +138,13 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
         t_start = continue_from.final_time
         guess = {**continue_from.final_values, **(guess or {})}
     if t_out is not None:
+        if n_out is not None:
+            raise MechnetError("give either n_out or t_out, not both")
         grid = np.asarray(t_out, dtype=float)
         if grid.ndim != 1 or grid.size < 2 or np.any(np.diff(grid) <= 0) or not np.all(np.isfinite(grid)):
             raise MechnetError("t_out must be an increasing sequence of at least two finite times")
+        if abs(t_end - grid[-1]) > 1e-12 * max(1.0, abs(t_end)):
+            raise MechnetError(f"t_end = {t_end:g} but t_out ends at {grid[-1]:g}; pass t_end = t_out[-1]")
         t_start, t_end = float(grid[0]), float(grid[-1])
     else:
         if not (np.isfinite(t_end) and np.isfinite(t_start) and t_end > t_start):
