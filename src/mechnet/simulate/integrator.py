@@ -201,6 +201,8 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
 
 
 def _check_time(value, what: str) -> float:
+    if isinstance(value, (str, bytes)):
+        raise MechnetError(f"{what} = {value!r} must be a number of seconds")
     try:
         number = float(value)
     except (TypeError, ValueError):

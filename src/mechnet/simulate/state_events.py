@@ -135,7 +135,7 @@ class StateEvents:
 
     def _event_density(self, density, out_interval):
         """Monitor points close enough to resolve the spacing of recent state events (or stop at a Zeno point)."""
-        times = [e.t for e in self.events if e.kind == "state"]
+        times = sorted({e.t for e in self.events if e.kind == "state"})   # simultaneous events count once
         if len(times) < 2:
             return density
         gap = times[-1] - times[-2]
