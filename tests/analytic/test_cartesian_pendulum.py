@@ -122,3 +122,16 @@ def test_continuing_a_run_keeps_the_branch_through_a_reselection():
     assert second.t[0] == first.t[-1]
     assert second["p.y"][0] == pytest.approx(first["p.y"][-1], abs=1e-12)
     assert abs(second["p.x"][-1] - full["p.x"][-1]) < 1e-5
+
+
+def test_the_differentiated_constraint_is_reported_as_an_invariant():
+    cm = cartesian_pendulum(theta0=0.5).compile()
+    dae = cm.dae
+    assert dae.invariant_names == ("p (CartesianPendulum), equation 5 — rod length",)
+    # at a consistent point (x, vx) = (0.3, 0.1), y = -sqrt(1 - 0.09): the rod residual vanishes (round-off)
+    import numpy as np
+    x = np.array([0.3, 0.1]) if dae.x_names == ("p.x", "p.vx") else None
+    assert x is not None, dae.x_names
+    z = np.array([-np.sqrt(1 - 0.09)])
+    assert abs(float(dae.invariants(0.0, x, z, [], [], []))) < 1e-15
+    assert abs(float(dae.invariants(0.0, x, z + 0.01, [], [], []))) > 1e-3

@@ -38,6 +38,7 @@ class FlatEquation:
     label: str                # "j1 (Inertia), equation 4" / "connection {a.flange, b.flange}: phi equal"
     doc: str = ""
     order: int = 0            # how often index reduction differentiated it (0: as written)
+    constraint: bool = False  # an original equation that index reduction differentiated (an invariant)
     smoothness: float = float("inf")   # how often its signals may be differentiated
 
     def describe(self) -> str:

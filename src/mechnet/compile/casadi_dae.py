@@ -114,7 +114,12 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     algf = _fn("alg", args, alg_expr, "res")
     observed = _fn("observed", args, obs, "y")
     zero, transitions = _events(flat, x_index, symbols, current, args, x)
-    invariants = _fn("invariants", args, ca.SX(0, 1), "c")
+    # the constraints index reduction differentiated, as residuals of the solution (monitoring, tests)
+    constraints = [eq for eq in flat.equations if eq.constraint]
+    inv = ca.vertcat(*[eq.residual for eq in constraints]) if constraints else ca.SX(0, 1)
+    if constraints and sub_from is not None:
+        inv = ca.substitute(inv, sub_from, sub_to)
+    invariants = _fn("invariants", args, inv, "c")
     x_names = tuple(variables[i].name for i in x_index)
     z_names = tuple(variables[i].name for i in z_index)
     units = {v.name: v.unit for v in original.variables}
@@ -132,7 +137,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
         u_names=tuple(variables[i].name for i in u_index),
         p_names=tuple(q.name for q in flat.parameters), d_names=(),
         ode=ode, alg=algf, observed=observed, observed_names=tuple(names),
-        zero=zero, transition=transitions, invariants=invariants, invariant_names=(),
+        zero=zero, transition=transitions, invariants=invariants, invariant_names=tuple(eq.describe() for eq in constraints),
         zero_labels=tuple(zc.label for zc in flat.zero_crossings),
         zero_directions=tuple(zc.direction for zc in flat.zero_crossings),
         selections=(Selection(x_names, z_names, ode, algf, observed),),

@@ -220,6 +220,9 @@ def reduce_index(flat: FlatSystem, options: IndexReductionOptions = IndexReducti
                 f"signal with continuous derivatives (e.g. Sine, or a smoother profile) when it drives an "
                 f"element rigidly")
         equations.append(_differentiate(source, flat, graph, parent, symbols, derivative_expr, order))
+    for e in graph.diff:
+        if e < n_eq0:
+            equations[e] = replace(equations[e], constraint=True)
 
     factory = SelectionFactory(flat, graph, variables, equations, symbols, options)
     dummies, levels = factory.choose(_start_values(flat, variables))
