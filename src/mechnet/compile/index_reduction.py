@@ -267,6 +267,26 @@ class SelectionFactory:
         pvals = self._pvals if params is None else params
         return np.asarray(self._jacobians[key](values, 0.0, pvals), dtype=float)
 
+    def quality_batch(self, levels, values_matrix: np.ndarray, params=None) -> np.ndarray:
+        """Signed `quality` at many points at once (rows of values_matrix), with one mapped evaluation."""
+        n = values_matrix.shape[0]
+        q = np.ones(n)
+        pvals = np.asarray(self._pvals if params is None else params, dtype=float).reshape(-1, 1)
+        for level in levels:
+            rows, cols = tuple(level.equations), tuple(level.candidates)
+            self.jacobian(rows, cols, values_matrix[0], params)            # builds and caches the Function
+            f = self._jacobians[(rows, cols)].map(n)
+            J = np.asarray(f(values_matrix.T, np.zeros((1, n)), np.tile(pvals, n)), dtype=float)
+            J = J.reshape(len(rows), n, len(cols)).transpose(1, 0, 2)  # (point, row, candidate)
+            norms = np.prod(np.linalg.norm(J, axis=2), axis=1)
+            chosen = [level.candidates.index(v) for v in level.chosen]
+            if len(chosen) != len(rows):
+                return np.zeros(n)
+            det = np.linalg.det(J[:, :, chosen])
+            with np.errstate(all="ignore"):
+                q *= np.where(norms > 0, det / norms, 0.0)
+        return q
+
     def can_degrade(self) -> bool:
         """False when every selection Jacobian is constant (a gear): the choice never needs revisiting."""
         graph = self.graph

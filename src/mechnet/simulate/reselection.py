@@ -31,17 +31,30 @@ class Reselection:
         Y = np.asarray(self.dae.observed.map(n)(pts.reshape(1, -1), xs.T, zs.T, U,
                                                 np.tile(self.p.reshape(-1, 1), n),
                                                 np.tile(self.d.reshape(-1, 1), n))).T
-        ratios = np.ones(n)
-        signs = np.ones(n)
+        # the running choice's quality at every point in one batch; the full comparison with the
+        # best choice (a pivoted QR per point) only where a switch is possible (quality below 1/2)
+        monitor = self.monitor
+        position = {name: k for k, name in enumerate(self.dae.observed_names)}
+        cols = [position.get(name) for name in monitor.names]
+        values = np.zeros((n, len(cols)))
+        for j, c in enumerate(cols):
+            if c is not None:
+                values[:, j] = Y[:, c]
+        levels = monitor.factory.levels_for(monitor.current)
+        signed = monitor.factory.quality_batch(levels, values, self.p)
+        ratios, signs = np.abs(signed), np.sign(signed)
+        signs[signs == 0] = 1.0
         for m in range(n):
-            quality, switch = self.monitor.better(Y[m], probe=True, params=self.p)
-            ratios[m] = 1.0 if quality is None else abs(quality)
-            signs[m] = 1.0 if quality is None else np.sign(quality)
-            # monitored too coarsely: the running choice went through (or too near) its singular point
-            if m > 0 and (signs[m] != signs[m - 1] or (switch and ratios[m - 1] - ratios[m] > 0.25)):
-                self.refine_at = m - 1
+            if m > 0 and signs[m] != signs[m - 1]:
+                self.refine_at = m - 1        # passed through the singular point between two checks
                 return ratios[: m], None
-            if switch and m > 0:
+            if ratios[m] >= monitor.HYSTERESIS or m == 0:
+                continue
+            quality, switch = monitor.better(Y[m], probe=True, params=self.p)
+            if switch:
+                if ratios[m - 1] - ratios[m] > 0.25:
+                    self.refine_at = m - 1    # monitored too coarsely: look closer before switching
+                    return ratios[: m], None
                 return ratios[: m + 1], m
         return ratios, None
 
