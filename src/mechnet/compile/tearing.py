@@ -81,16 +81,22 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
     def unknowns_of(k):
         return [v for v in holds[k] if v in remaining]
 
+    users = {v: [] for v in variables}
+    for k, vs in enumerate(holds):
+        for v in vs:
+            users[v].append(k)
     open_eqs = set(range(n))
+    queue = list(range(n))                 # equations to look at again (their unknowns may have gone)
     while open_eqs:
-        progress = False
-        for k in sorted(open_eqs):
+        while queue:
+            k = queue.pop()
+            if k not in open_eqs:
+                continue
             unk = unknowns_of(k)
             if not unk:
                 out_res.append(residuals[k])
                 rows.append(k)
                 open_eqs.discard(k)
-                progress = True
             elif len(unk) == 1:
                 sol = solve_linear_for(residuals[k], symbols[unk[0]], parameter_hashes)
                 if sol is None:
@@ -98,8 +104,8 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
                 solved.append((unk[0], sol))
                 remaining.discard(unk[0])
                 open_eqs.discard(k)
-                progress = True
-        if not progress:
+                queue.extend(j for j in users[unk[0]] if j in open_eqs)
+        if open_eqs:
             counts = {v: 0 for v in remaining}
             for k in open_eqs:
                 for v in unknowns_of(k):
@@ -107,6 +113,8 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
             tear = max(sorted(counts), key=lambda v: counts[v])
             tears.append(tear)
             remaining.discard(tear)
+            queue.extend(j for j in users[tear] if j in open_eqs)
+            queue.extend(k for k in open_eqs if len(unknowns_of(k)) <= 1)
     if len(tears) != len(out_res):
         # tearing did not come out square (should not happen for a matched block): keep it whole
         return BlockSolution([], list(variables), list(residuals), list(range(n)))
