@@ -13,17 +13,12 @@ import math
 import casadi as ca
 import numpy as np
 
+from ..core.declarations import finite_number
 from ..core.errors import ParameterError
 
 
 def _number(owner: str, name: str, value) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{owner}: {name} = {value!r} is not a number") from None
-    if not math.isfinite(number):
-        raise ParameterError(f"{owner}: {name} = {number} is not finite")
-    return number
+    return finite_number(value, f"{owner}: {name}")
 
 
 def _clamp(value, lo, hi):

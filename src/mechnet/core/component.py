@@ -9,14 +9,13 @@ from __future__ import annotations
 
 import difflib
 import keyword
-import math
 from dataclasses import dataclass
 from typing import Optional
 
 import casadi as ca
 import numpy as np
 
-from .declarations import Across, Declaration, Input, Param, Port, Through, Tunable, Variable
+from .declarations import Across, Declaration, finite_number, Input, Param, Port, Through, Tunable, Variable
 from .equation import Eq, register, time
 from .errors import ParameterError, StructureError
 
@@ -279,12 +278,5 @@ class Component:
 
 
 def decl_value(label: str, key: str, value) -> float:
-    """A constant input default: a finite number, or a Signal (handled by the caller)."""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{label}: {key} = {value!r} must be a number or a signal "
-                             f"(mechnet.components.signals)") from None
-    if not math.isfinite(number):
-        raise ParameterError(f"{label}: {key} = {number} is not finite")
-    return number
+    """A constant input default (a Signal is handled by the caller)."""
+    return finite_number(value, f"{label}: {key} (a number or a signal from mechnet.components.signals)")

@@ -14,6 +14,19 @@ from typing import Callable, Optional
 from .errors import ParameterError
 
 
+def finite_number(value, what: str, error=ParameterError) -> float:
+    """`value` as a finite float, or `error` saying "<what> = <value> is not a number / not finite"."""
+    if isinstance(value, (str, bytes)):
+        raise error(f"{what} = {value!r} is not a number")
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise error(f"{what} = {value!r} is not a number") from None
+    if not math.isfinite(number):
+        raise error(f"{what} = {number} is not finite")
+    return number
+
+
 # ---- parameter checks: each returns an error text or None ---------------------------------
 
 def positive(value) -> Optional[str]:

@@ -26,6 +26,7 @@ import casadi as ca
 import numpy as np
 
 from ..core.errors import InitializationError, IntegrationError, MechnetError, ParameterError, UnknownNameError
+from ..core.declarations import finite_number
 from .events import Event, breakpoints, chunk_bounds, output_grid
 from .reselection import Reselection, SelectionMonitor
 from .state_events import StateEvents
@@ -201,32 +202,18 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
 
 
 def _check_time(value, what: str) -> float:
-    if isinstance(value, (str, bytes)):
-        raise MechnetError(f"{what} = {value!r} must be a number of seconds")
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise MechnetError(f"{what} = {value!r} must be a number of seconds") from None
-    if not np.isfinite(number):
-        raise MechnetError(f"{what} = {number} must be finite")
-    return number
+    return finite_number(value, f"{what} (s)", MechnetError)
 
 
 def _check_tolerance(value, what: str) -> float:
-    number = _check_time(value, what) if not isinstance(value, str) else None
-    if number is None or not number > 0:
+    number = finite_number(value, what, MechnetError)
+    if not number > 0:
         raise MechnetError(f"{what} = {value!r} must be a positive number")
     return number
 
 
 def _check_value(value, what: str) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise InitializationError(f"{what} = {value!r} is not a number") from None
-    if not np.isfinite(number):
-        raise InitializationError(f"{what} = {number} is not finite")
-    return number
+    return finite_number(value, what, InitializationError)
 
 
 def _resolve_params(dae, given: dict | None) -> np.ndarray:
