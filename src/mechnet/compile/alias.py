@@ -10,6 +10,7 @@ differentiated alias equation, so the rigid pair gets one set of states.
 """
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass, replace
 
 import casadi as ca
@@ -36,6 +37,7 @@ class _Classes:
         self.sign = [1.0] * n
         self.const: dict[int, float] = {}
         self.der_of = dict(flat.der_of)           # root -> (index, sign); maintained on roots
+        self.log: list[int] = []                  # roots that stopped being free symbols, in order
 
     def find(self, i):
         s = 1.0
@@ -75,6 +77,7 @@ class _Classes:
             return False
         self.parent[drop] = keep
         self.sign[drop] = rel
+        self.log.append(drop)
         if drop in self.const:
             self.set_const(keep, rel * self.const.pop(drop))
         if drop in self.der_of:
@@ -111,6 +114,7 @@ class _Classes:
         if r in self.const:
             return False
         self.const[r] = s * value
+        self.log.append(r)
         if r in self.der_of:                   # a constant's derivative is zero
             dj, ds = self.der_of.pop(r)
             if dj is not None and not self.set_const(dj, 0.0):
@@ -134,53 +138,76 @@ def simplify(flat: FlatSystem, options: SimplifyOptions = SimplifyOptions()) -> 
     active = [True] * len(residuals)
     removed = 0
 
-    changed = options.eliminate_aliases
-    while changed:
-        changed = False
-        for e, r in enumerate(residuals):
-            if not active[e]:
-                continue
-            vs = [index[s.element_hash()] for s in ca.symvar(r) if s.element_hash() in index]
-            n_all = len(ca.symvar(r))
-            if n_all == 0:
-                if float(ca.evalf(r)) != 0.0:
-                    raise StructureError(f"{flat.equations[e].describe()} cannot hold: it reduces to "
-                                         f"{float(ca.evalf(r)):g} = 0 after eliminating constants")
-                active[e] = False
-                removed += 1
-                continue
-            if len(vs) != n_all or len(vs) > 2:
-                continue                       # time, tunable parameters or many variables
-            vec = ca.vertcat(*[symbols[i] for i in vs])
-            jac = ca.jacobian(r, vec)
-            if not jac.is_constant():
-                continue
-            coeffs = [float(c) for c in ca.evalf(jac).full().ravel()]
-            offset = ca.substitute(r, vec, ca.DM.zeros(len(vs)))
-            if not offset.is_constant():
-                continue
-            offset = float(ca.evalf(offset))
-            try:
-                if len(vs) == 1 and coeffs[0] != 0.0:
-                    used = classes.set_const(vs[0], -offset / coeffs[0])
-                elif len(vs) == 2 and offset == 0.0 and abs(coeffs[0]) == abs(coeffs[1]) and coeffs[0] != 0:
-                    used = classes.union(vs[0], vs[1], -coeffs[1] / coeffs[0])
-                else:
-                    used = False
-            except StructureError as exc:
-                raise StructureError(f"{flat.equations[e].describe()}: {exc}") from None
-            if used:
-                active[e] = False
-                changed = True
-        if changed:
-            elim = [i for i in range(len(symbols)) if classes.find(i)[0] != i or i in classes.const]
-            if elim:
-                olds = ca.vertcat(*[symbols[i] for i in elim])
-                news = ca.vertcat(*[classes.expression(i, symbols) for i in elim])
-                keep = [e for e in range(len(residuals)) if active[e]]
-                subs = ca.substitute(ca.vertcat(*[residuals[e] for e in keep]), olds, news)
-                for k, e in enumerate(keep):
-                    residuals[e] = subs[k]
+    # a work queue: an equation is looked at again only when one of its variables was eliminated,
+    # and only that equation is rewritten (large scenes hold long expressions; rescanning is O(N²))
+    deps: list[list[int]] = [[] for _ in residuals]
+    other = [False] * len(residuals)          # uses time or tunable parameters
+    users: dict[int, set] = {}
+
+    def scan(e):
+        syms = ca.symvar(residuals[e])
+        deps[e] = [index[h] for h in (x.element_hash() for x in syms) if h in index]
+        other[e] = len(deps[e]) != len(syms)
+        for i in deps[e]:
+            users.setdefault(i, set()).add(e)
+
+    eliminated: set[int] = set()
+    queue = deque(range(len(residuals)) if options.eliminate_aliases else ())
+    for e in queue:
+        scan(e)
+    queued = set(queue)
+    while queue:
+        e = queue.popleft()
+        queued.discard(e)
+        if not active[e]:
+            continue
+        gone = [i for i in deps[e] if i in eliminated]
+        if gone:
+            residuals[e] = ca.substitute(residuals[e], ca.vertcat(*[symbols[i] for i in gone]),
+                                         ca.vertcat(*[classes.expression(i, symbols) for i in gone]))
+            scan(e)
+        r, vs = residuals[e], deps[e]
+        if not vs and not other[e]:
+            if float(ca.evalf(r)) != 0.0:
+                raise StructureError(f"{flat.equations[e].describe()} cannot hold: it reduces to "
+                                     f"{float(ca.evalf(r)):g} = 0 after eliminating constants")
+            active[e] = False
+            removed += 1
+            continue
+        if other[e] or len(vs) > 2:
+            continue                       # time, tunable parameters or many variables
+        vec = ca.vertcat(*[symbols[i] for i in vs])
+        jac = ca.jacobian(r, vec)
+        if not jac.is_constant():
+            continue
+        coeffs = [float(c) for c in ca.evalf(jac).full().ravel()]
+        offset = ca.substitute(r, vec, ca.DM.zeros(len(vs)))
+        if not offset.is_constant():
+            continue
+        offset = float(ca.evalf(offset))
+        start_log = len(classes.log)
+        try:
+            if len(vs) == 1 and coeffs[0] != 0.0:
+                used = classes.set_const(vs[0], -offset / coeffs[0])
+            elif len(vs) == 2 and offset == 0.0 and abs(coeffs[0]) == abs(coeffs[1]) and coeffs[0] != 0:
+                used = classes.union(vs[0], vs[1], -coeffs[1] / coeffs[0])
+            else:
+                used = False
+        except StructureError as exc:
+            raise StructureError(f"{flat.equations[e].describe()}: {exc}") from None
+        if used:
+            active[e] = False
+        for i in classes.log[start_log:]:
+            eliminated.add(i)
+            for k in users.get(i, ()):
+                if active[k] and k not in queued:
+                    queue.append(k)
+                    queued.add(k)
+    for e in range(len(residuals)):          # bring every surviving equation up to date
+        gone = [i for i in deps[e] if i in eliminated]
+        if active[e] and gone:
+            residuals[e] = ca.substitute(residuals[e], ca.vertcat(*[symbols[i] for i in gone]),
+                                         ca.vertcat(*[classes.expression(i, symbols) for i in gone]))
 
     # what survives
     survivors = [i for i in range(len(symbols)) if classes.find(i)[0] == i and i not in classes.const]
@@ -210,7 +237,8 @@ def simplify(flat: FlatSystem, options: SimplifyOptions = SimplifyOptions()) -> 
     zero_crossings = _map_zero_crossings(flat, classes, symbols, new_index)
     reduced = FlatSystem(flat.name, variables, equations, flat.parameters, der_of, flat.time,
                          flat.effects, stage="simplify", time_events=flat.time_events,
-                         folded_parameters=flat.folded_parameters, zero_crossings=zero_crossings)
+                         folded_parameters=flat.folded_parameters, zero_crossings=zero_crossings,
+                         intermediates=flat.intermediates)
     return reduced, AliasMap(expressions, n_alias, n_const, removed + (len(flat.equations) - len(equations) - removed))
 
 

@@ -40,6 +40,8 @@ class FlatEquation:
     order: int = 0            # how often index reduction differentiated it (0: as written)
     constraint: bool = False  # an original equation that index reduction differentiated (an invariant)
     smoothness: float = float("inf")   # how often its signals may be differentiated
+    regular: bool = False     # its coefficients on its unknowns never make it singular (a multibody pivot
+                              # is an articulated inertia > 0), so emit may divide by them
 
     def describe(self) -> str:
         return f"{self.label}" + (f" — {self.doc}" if self.doc else "")
@@ -83,6 +85,21 @@ class FlatSystem:
     time_events: tuple = ()       # (time, cause): where a signal jumps or kinks
     folded_parameters: tuple = ()  # names of parameters folded into the equations as numbers
     zero_crossings: tuple = ()    # ZeroCrossing: state events declared with When
+    multibody: object = None      # MultibodyTree from the tree pass (frames as expressions), or None
+    observed_only: tuple = ()     # (name, symbol, unit, expression): names that left the equations (frames)
+    intermediates: tuple = ((), ())  # (symbols, definitions): state-only quantities the equations share
+
+    def expand(self, exprs: list) -> list:
+        """`exprs` with the intermediates replaced by their definitions (sharing kept: one pass)."""
+        syms, defs = self.intermediates
+        if not syms or not exprs:
+            return list(exprs)
+        _, out = ca.substitute_inplace(list(syms), list(defs), [ca.SX(e) for e in exprs], False)
+        return list(out)
+
+    def uses_intermediates(self, expr) -> bool:
+        syms = self.intermediates[0]
+        return bool(syms) and ca.depends_on(ca.SX(expr), ca.vertcat(*syms))
 
     def index_of(self) -> dict[str, int]:
         return {v.name: i for i, v in enumerate(self.variables)}

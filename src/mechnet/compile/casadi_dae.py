@@ -50,7 +50,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
         for r in residuals:
             outside.update(i for i in (position.get(s.element_hash()) for s in ca.symvar(r)) if i in value)
         if options.tearing:
-            guarded = any(flat.equations[e].order > 0 for e in block)
+            guarded = any(flat.equations[e].order > 0 or flat.equations[e].regular for e in block)
             sol = solve_block(residuals, block_vars, symbols, param_hashes, guarded)
         else:
             sol = BlockSolution([], list(block_vars), residuals, list(range(len(block))))
@@ -102,6 +102,14 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
             exprs.append(current(survivor[v.name]))
         else:
             exprs.append(aliases.expressions[v.name])
+    if original.observed_only:
+        extra = ca.vertcat(*[expr for _, _, _, expr in original.observed_only])
+        gone = [v for v in original.variables if v.name not in survivor]
+        if gone:
+            extra = ca.substitute(extra, ca.vertcat(*[v.symbol for v in gone]),
+                                  ca.vertcat(*[aliases.expressions[v.name] for v in gone]))
+        names.extend(name for name, _, _, _ in original.observed_only)
+        exprs.extend(extra[k] for k in range(extra.numel()))
     obs = ca.vertcat(*exprs)
     if sub_from is not None:
         obs = ca.substitute(obs, sub_from, sub_to)
@@ -110,19 +118,21 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
         names.append(q.name)
     obs = ca.vertcat(obs, p)
 
-    ode = _fn("ode", args, ode_expr, "xdot")
-    algf = _fn("alg", args, alg_expr, "res")
-    observed = _fn("observed", args, obs, "y")
-    zero, transitions = _events(flat, x_index, symbols, current, args, x)
-    # the constraints index reduction differentiated, as residuals of the solution (monitoring, tests)
+    # the tree's shared state-only intermediates, expanded once for everything (sharing kept)
     constraints = [eq for eq in flat.equations if eq.constraint]
     inv = ca.vertcat(*[eq.residual for eq in constraints]) if constraints else ca.SX(0, 1)
     if constraints and sub_from is not None:
         inv = ca.substitute(inv, sub_from, sub_to)
+    ode_expr, alg_expr, obs, inv = flat.expand([ode_expr, alg_expr, obs, inv])
+    ode = _fn("ode", args, ode_expr, "xdot")
+    algf = _fn("alg", args, alg_expr, "res")
+    observed = _fn("observed", args, obs, "y")
+    zero, transitions = _events(flat, x_index, symbols, current, args, x)
     invariants = _fn("invariants", args, inv, "c")
     x_names = tuple(variables[i].name for i in x_index)
     z_names = tuple(variables[i].name for i in z_index)
     units = {v.name: v.unit for v in original.variables}
+    units.update({name: unit for name, _, unit, _ in original.observed_only})
     units.update({q.name: q.unit for q in flat.parameters})
     starts = {v.name: v.start for v in original.variables if v.start is not None}
     guesses = {v.name: (v.guess if v.guess is not None else v.default_start) for v in original.variables}
@@ -180,7 +190,7 @@ def _events(flat, x_index, symbols, current, args, x):
             expr = ca.substitute(expr, ca.vertcat(*[a for a, _ in subs]), ca.vertcat(*[b for _, b in subs]))
         return expr
 
-    g = ca.vertcat(*[in_base(zc.g) for zc in flat.zero_crossings])
+    g = flat.expand([ca.vertcat(*[in_base(zc.g) for zc in flat.zero_crossings])])[0]
     state_pos = {i: k for k, i in enumerate(x_index)}
     transitions = []
     for n, zc in enumerate(flat.zero_crossings):
@@ -192,5 +202,6 @@ def _events(flat, x_index, symbols, current, args, x):
                                      f"({', '.join(flat.variables[j].name for j in x_index)})")
             x_plus[state_pos[i]] = in_base(value)
         out = ca.vertcat(*x_plus) if x_plus else ca.SX(0, 1)
+        out = flat.expand([out])[0]
         transitions.append(ca.Function(f"transition_{n}", list(args), [out, args[5]], list(ARGS), ["x_plus", "d_plus"]))
     return _fn("zero", args, g, "g"), tuple(transitions)

@@ -7,7 +7,7 @@ zero). Derivative symbols used by `der()` become variables of their own.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import casadi as ca
 
@@ -17,6 +17,8 @@ from ..core.errors import StructureError
 from ..core.model import Model
 from .artifacts import FlatEquation, FlatSystem, FlatVariable, Parameter, ZeroCrossing
 from .connections import connection_equations
+from .spanning_tree import build_tree
+from ..components.multibody.interfaces import Frame
 
 
 @dataclass(frozen=True)
@@ -52,6 +54,9 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
         variables.append(var)
 
     components = model.components()
+    graph = model.connection_graph()
+    tree = build_tree(components, graph)          # multibody frames: expressions along the spanning tree
+    replaced = tree.replaced if tree is not None else {}
     for comp in components:
         ctype = type(comp).__name__
         effects[ctype] = effects.get(ctype, 0) + 1
@@ -59,9 +64,12 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
         for info in comp.variables():
             names = info.declaration.scalar_names(f"{comp.path}.{info.local_name.rsplit('.', 1)[0]}"
                                                   if "." in info.local_name else comp.path)
+            scalars = ca.vertsplit(info.symbol)
             for i, name in enumerate(names):
+                if scalars[i].element_hash() in replaced:
+                    continue                      # a frame quantity: an observed expression of the tree
                 add_variable(FlatVariable(
-                    name=name, symbol=info.symbol[i],
+                    name=name, symbol=scalars[i],
                     kind="algebraic" if info.driven else _kind(info.declaration),
                     unit=info.declaration.unit,
                     start=None if info.start is None else float(info.start[i]),
@@ -93,12 +101,22 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
             equations.append(FlatEquation(residual, comp.path, f"{label}, equation {number}{suffix}", doc,
                                           smoothness=smooth))
 
-    equations.extend(connection_equations(model.connection_graph()))
+    if tree is not None:
+        _substitute_frames(equations, tree)
+        graph = graph.subgraph([c for c in graph.nodes if not isinstance(c, Frame)])
+    equations.extend(connection_equations(graph))
+    if tree is not None:
+        for var in tree.variables:
+            add_variable(var)
+        equations.extend(tree.equations)
+        effects["multibody tree (links)"] = tree.links
 
     # derivative symbols become variables; anything else unknown is a user error
     param_hashes = {p.symbol.element_hash() for p in parameters}
     der_of: dict[int, tuple[int, float]] = {}
     skip = param_hashes | {time.element_hash()}
+    if tree is not None:
+        skip |= {s.element_hash() for s in tree.intermediates[0]}
 
     def ensure(symbol, eq) -> int:
         h = symbol.element_hash()
@@ -152,5 +170,27 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
 
     return FlatSystem(model.name, tuple(variables), tuple(equations), tuple(parameters), der_of, time,
                       tuple(sorted(effects.items())), time_events=tuple(sorted(time_events)),
-                      folded_parameters=tuple(folded), zero_crossings=tuple(zero_crossings))
+                      folded_parameters=tuple(folded), zero_crossings=tuple(zero_crossings),
+                      multibody=tree, observed_only=tuple(tree.observed) if tree is not None else (),
+                      intermediates=tree.intermediates if tree is not None else ((), ()))
+
+
+def _substitute_frames(equations: list, tree) -> None:
+    """Frame positions, orientations (and their rates) in component equations become tree expressions."""
+    touched = [k for k, eq in enumerate(equations)
+               if any(s.element_hash() in tree.replaced for s in ca.symvar(eq.residual))]
+    if not touched:
+        return
+    olds, news = [], []
+    seen = set()
+    for k in touched:
+        for s in ca.symvar(equations[k].residual):
+            h = s.element_hash()
+            if h in tree.replaced and h not in seen:
+                seen.add(h)
+                olds.append(s)
+                news.append(tree.replaced[h])
+    out = ca.substitute(ca.vertcat(*[equations[k].residual for k in touched]), ca.vertcat(*olds), ca.vertcat(*news))
+    for j, k in enumerate(touched):
+        equations[k] = replace(equations[k], residual=out[j])
 

@@ -264,8 +264,8 @@ class SelectionFactory:
     def jacobian(self, rows: tuple, cols: tuple, values, params=None) -> np.ndarray:
         key = (rows, cols)
         if key not in self._jacobians:
-            jac = ca.jacobian(ca.vertcat(*[self.equations[e].residual for e in rows]),
-                              ca.vertcat(*[self.symbols[v] for v in cols]))
+            residuals = self.flat.expand([self.equations[e].residual for e in rows])
+            jac = ca.jacobian(ca.vertcat(*residuals), ca.vertcat(*[self.symbols[v] for v in cols]))
             self._jacobians[key] = ca.Function("dd_jacobian", list(self._args), [jac])
         pvals = self._pvals if params is None else params
         return np.asarray(self._jacobians[key](values, 0.0, pvals), dtype=float)
@@ -379,8 +379,13 @@ class SelectionFactory:
 
 def _differentiate(source: FlatEquation, flat, graph, parent, symbols, derivative_expr, order) -> FlatEquation:
     r = source.residual
+    incidence = graph.inc[parent]
+    if flat.uses_intermediates(r):        # differentiate what the intermediates stand for
+        r = flat.expand([r])[0]
+        where = {s.element_hash(): v for v, s in enumerate(symbols)}
+        incidence = sorted({where[s.element_hash()] for s in ca.symvar(r) if s.element_hash() in where})
     vs, ds = [flat.time], [ca.SX(1.0)]
-    for v in graph.inc[parent]:
+    for v in incidence:
         if graph.kind[v] == "input":
             if ca.depends_on(r, symbols[v]):
                 raise StructureError(
@@ -394,7 +399,7 @@ def _differentiate(source: FlatEquation, flat, graph, parent, symbols, derivativ
     label = f"d/dt {source.label}" if order == 1 else f"d{order}/dt{order} {source.label.split('d/dt ', 1)[-1]}"
     base = source
     return FlatEquation(dr, source.origin, label, source.doc, order=order,
-                        smoothness=base.smoothness)
+                        smoothness=base.smoothness, regular=base.regular)
 
 
 def _start_values(flat: FlatSystem, variables) -> np.ndarray:

@@ -15,9 +15,10 @@ from typing import Optional
 import casadi as ca
 import numpy as np
 
-from .declarations import Across, Declaration, finite_number, Input, Param, Port, Through, Tunable, Variable
+from .declarations import (Across, Declaration, finite_number, Flag, Input, Param, Port, Through, Tunable,
+                           Variable)
 from .equation import Eq, register, time
-from .errors import ParameterError, StructureError
+from .errors import ConnectError, ParameterError, StructureError
 
 
 @dataclass
@@ -126,6 +127,12 @@ class Component:
         self.signals: dict[str, object] = {}
         label = f"{name} ({type(self).__name__})"
         for key, decl in self._declarations.items():
+            if isinstance(decl, Flag):
+                value = kwargs.pop(key, decl.default)
+                if not isinstance(value, (bool, np.bool_)):
+                    raise ParameterError(f"{label}: {key} = {value!r} must be True or False ({decl.doc})")
+                self._values[key] = bool(value)
+        for key, decl in self._declarations.items():
             if isinstance(decl, Param):
                 value = kwargs.pop(key, decl.default)
                 if value is None:
@@ -138,6 +145,9 @@ class Component:
                 else:
                     self._values[key] = number
             elif isinstance(decl, Port):
+                if decl.enabled_by is not None and not self._values[decl.enabled_by]:
+                    self._values[key] = DisabledPort(label, key, decl.enabled_by)
+                    continue
                 connector = decl.connector_type(self, key)
                 self._ports[key] = connector
                 self._values[key] = connector
@@ -224,7 +234,7 @@ class Component:
     # ---- introspection ----------------------------------------------------------------------
 
     def parameter_names(self) -> list[str]:
-        return [k for k, d in self._declarations.items() if isinstance(d, Param)]
+        return [k for k, d in self._declarations.items() if isinstance(d, (Param, Flag))]
 
     def ports(self) -> dict[str, Connector]:
         return dict(self._ports)
@@ -275,6 +285,19 @@ class Component:
 
     def __repr__(self):
         return f"<{type(self).__name__} {self.path}>"
+
+
+class DisabledPort:
+    """Stands for a port switched off by a flag; using it says which flag switches it on."""
+
+    def __init__(self, label: str, port: str, flag: str):
+        self._message = f"{label}: connector {port} exists only with {flag}=True"
+
+    def __getattr__(self, key):
+        raise ConnectError(self._message)
+
+    def __repr__(self):
+        return f"<disabled port: {self._message}>"
 
 
 def decl_value(label: str, key: str, value) -> float:

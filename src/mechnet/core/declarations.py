@@ -11,6 +11,9 @@ import math
 from dataclasses import dataclass
 from typing import Callable, Optional
 
+import casadi as ca
+import numpy as np
+
 from .errors import ParameterError
 
 
@@ -83,12 +86,15 @@ class Param(Declaration):
 
     kind = "parameter"
 
-    def __init__(self, default=None, *, unit="1", doc="", check: Callable = any_finite, shape: int = 1):
-        super().__init__(unit=unit, doc=doc, shape=shape)
+    def __init__(self, default=None, *, unit="1", doc="", check: Callable = any_finite, shape=1):
+        super().__init__(unit=unit, doc=doc)
+        self.shape = shape                 # 1, n (a vector) or (n, m) (a matrix)
         self.default = default
         self.check = check
 
-    def validate(self, owner_label: str, value) -> float:
+    def validate(self, owner_label: str, value):
+        if self.shape != 1:
+            return self._validate_array(owner_label, value)
         raw = value.value if isinstance(value, Tunable) else value
         try:
             number = float(raw)
@@ -103,6 +109,42 @@ class Param(Declaration):
             raise ParameterError(f"{owner_label}: parameter {self.name} = {number} {problem} "
                                  f"({self.doc}, unit {self.unit})")
         return number
+
+
+    def _validate_array(self, owner_label: str, value):
+        """A vector or matrix parameter, folded as a CasADi DM (vectors are columns)."""
+        what = f"{owner_label}: parameter {self.name}"
+        if isinstance(value, Tunable):
+            raise ParameterError(f"{what}: only scalar parameters can be tunable")
+        shape = (self.shape, 1) if isinstance(self.shape, int) else tuple(self.shape)
+        try:
+            arr = np.array(value, dtype=float)
+        except (TypeError, ValueError):
+            raise ParameterError(f"{what} = {value!r} is not a {_shape_text(shape)} of numbers "
+                                 f"({self.doc}, unit {self.unit})") from None
+        if arr.size != shape[0] * shape[1] or (arr.ndim == 2 and arr.shape != shape and shape[1] != 1):
+            raise ParameterError(f"{what} = {value!r} must be a {_shape_text(shape)} ({self.doc}, unit {self.unit})")
+        arr = arr.reshape(shape)
+        if not np.all(np.isfinite(arr)):
+            raise ParameterError(f"{what} = {value!r} is not finite ({self.doc}, unit {self.unit})")
+        problem = self.check(arr)
+        if problem:
+            raise ParameterError(f"{what} = {arr.tolist()} {problem} ({self.doc}, unit {self.unit})")
+        return ca.DM(arr)
+
+
+def _shape_text(shape) -> str:
+    return f"vector of {shape[0]}" if shape[1] == 1 else f"{shape[0]}x{shape[1]} matrix"
+
+
+class Flag(Declaration):
+    """A structural yes/no choice made at construction (`use_flange=True`); it can switch ports on."""
+
+    kind = "flag"
+
+    def __init__(self, default: bool = False, *, doc: str = ""):
+        super().__init__(doc=doc)
+        self.default = bool(default)
 
 
 class Variable(Declaration):
@@ -168,6 +210,7 @@ class Port(Declaration):
 
     kind = "port"
 
-    def __init__(self, connector_type, *, doc: str = ""):
+    def __init__(self, connector_type, *, doc: str = "", enabled_by: str | None = None):
         super().__init__(doc=doc)
         self.connector_type = connector_type
+        self.enabled_by = enabled_by       # name of a Flag: the port exists only when it is True

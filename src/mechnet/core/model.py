@@ -79,6 +79,8 @@ class Model:
         """Connect two connectors of the same type: potentials equal, flows sum to zero."""
         self._check_open("connect")
         for c in (a, b):
+            if hasattr(c, "_message") and not isinstance(c, Connector):
+                raise ConnectError(c._message)
             if not isinstance(c, Connector):
                 raise ConnectError(f"model {self.name!r}: connect() takes connectors such as "
                                    f"inertia.flange_a, got {c!r}")

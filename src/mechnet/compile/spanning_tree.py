@@ -1,0 +1,422 @@
+"""The multibody tree pass (part of flatten): frames become expressions, dynamics become a recursion.
+
+DESIGN.md, "A multibody formulation that fits this pipeline". The frame
+connection sets are the nodes of a graph whose edges are the tree-edge
+components (joints, fixed translations and rotations). A breadth-first
+spanning tree rooted at the World gives every frame's position `r_0` and
+orientation `R` as expressions of the joint coordinates, so orientation is
+never an unknown. Nodes joined by rigid edges form one *link* (rigid body).
+
+Dynamics follow the articulated-body recursion, written as residual equations
+with per-link intermediate unknowns so that every equation is local and emit
+solves them one by one (O(N) in the number of links):
+
+- inward (leaves → root): the articulated inertia I^A_k (an expression of the
+  joint coordinates) and the bias wrench p_k (an unknown: it collects the
+  external loads and the axis torques of the subtree);
+- outward (root → leaves): the joint acceleration from
+  D_k q̈_k = τ_k − Sᵀ(I^A_k (X A_parent + c_k) + p_k), and the link
+  acceleration A_k = X A_parent + c_k + S q̈_k.
+
+Everything is resolved in world axes; wrenches are (moment about the link's
+reference point, force); accelerations are classical (α, a of the reference
+point). Other components with frames (force elements, sensors) load the tree
+through their cut forces, which stay ordinary unknowns of their own equations.
+
+Frame positions and orientations, and the cut forces of the tree components
+(bodies, edges, the World), leave the equation system: they are expressions
+(`observed`), the latter built leaves → root from the link accelerations as
+the wrench each subtree needs. So the compiled model carries about 16 unknowns
+per link instead of 18 per frame, and no equation holds a whole-tree expression
+that a later stage would have to rewrite.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import casadi as ca
+import networkx as nx
+
+from ..core.equation import der
+from ..core.errors import StructureError
+from .artifacts import FlatEquation, FlatVariable
+
+
+@dataclass
+class FrameKinematics:
+    """Position, orientation, angular velocity and velocity of a frame origin (world components)."""
+
+    r: ca.SX
+    R: ca.SX
+    w: ca.SX
+    v: ca.SX
+
+
+@dataclass
+class MultibodyTree:
+    """What the pass found and made; flatten takes the variables, equations and substitutions."""
+
+    frames: dict                     # frame label -> FrameKinematics (expressions of q, q̇)
+    coordinates: list                # [(joint path, q symbol, q̇ symbol)] in tree order
+    links: int
+    bodies: int
+    world: str
+    variables: list = field(default_factory=list)      # new unknowns (link accelerations, bias wrenches)
+    equations: list = field(default_factory=list)      # the recursion, local equations
+    replaced: dict = field(default_factory=dict)       # element hash of a frame symbol -> expression
+    observed: list = field(default_factory=list)       # (name, symbol, unit, expression) leaving the system
+    intermediates: tuple = ((), ())                    # (symbols, definitions): state-only quantities, in order
+
+    def summary(self) -> str:
+        return (f"multibody tree: {self.links} moving link(s), {self.bodies} body(ies), "
+                f"{len(self.coordinates)} joint coordinate(s), rooted at {self.world}")
+
+
+# ---- small spatial algebra (world axes; wrench = (moment, force), motion = (angular, linear)) ----------
+
+def _blocks(a, b, c, d):
+    return ca.vertcat(ca.horzcat(a, b), ca.horzcat(c, d))
+
+
+def _cross(a, b):
+    a = a if isinstance(a, ca.SX) else ca.SX(a)
+    b = b if isinstance(b, ca.SX) else ca.SX(b)
+    return ca.cross(a, b)
+
+
+def _skew(v):
+    return ca.skew(ca.SX(v))
+
+
+def _transport_wrench(w, d):
+    """A wrench acting at a point d from the reference, expressed about the reference: the moment gains d × f."""
+    return ca.vertcat(w[:3] + _cross(d, w[3:]), w[3:])
+
+
+def _transport_inertia(I6, d):
+    """Xᵀ I X for X = [[1, 0], [−[d]×, 1]] (the acceleration of a point at d from the reference)."""
+    D = _skew(d)
+    eye, zero = ca.SX.eye(3), ca.SX(3, 3)
+    X = _blocks(eye, zero, -D, eye)
+    return ca.mtimes(X.T, ca.mtimes(I6, X))
+
+
+def _roles():
+    from ..components.multibody.interfaces import Frame, PartialBody, PartialTreeEdge
+    from ..components.multibody.parts import World
+    return Frame, PartialBody, PartialTreeEdge, World
+
+
+# ---- the pass -------------------------------------------------------------------------------------------
+
+class _Tree:
+    """Working state of the pass for one scene."""
+
+    def __init__(self, components, graph):
+        Frame, self.PartialBody, self.PartialTreeEdge, self.World = _roles()
+        self.frames = [c for c in graph.nodes if isinstance(c, Frame)]
+        self.members = sorted((sorted(m, key=lambda c: c.label)
+                               for m in nx.connected_components(graph.subgraph(self.frames))),
+                              key=lambda m: m[0].label)
+        self.node_of = {c: k for k, members in enumerate(self.members) for c in members}
+        self.world = self._the_world(components) if self.frames else None
+        self.components = components
+        self.let_symbols, self.let_values = [], []
+
+    def let(self, expr, name):
+        """Hide a state-only expression behind named symbols, entry by entry (numbers stay numbers, so
+        structural zeros survive). Later stages see only short local equations; emit expands the
+        chain once at the end, so the compiled expressions keep their sharing and stay O(N)."""
+        expr = ca.densify(ca.SX(expr))
+        out = []
+        for k, e in enumerate(ca.vertsplit(ca.vec(expr))):
+            if e.is_constant() or e.is_symbolic():
+                out.append(e)
+                continue
+            sym = ca.SX.sym(f"{name}_{k}")
+            self.let_symbols.append(sym)
+            self.let_values.append(e)
+            out.append(sym)
+        return ca.reshape(ca.vertcat(*out), expr.shape[0], expr.shape[1])
+
+    def _the_world(self, components):
+        worlds = [c for c in components if isinstance(c, self.World)]
+        if not worlds:
+            shown = ", ".join(f.label for f in self.frames[:3]) + (", …" if len(self.frames) > 3 else "")
+            raise StructureError(f"the scene has multibody frames ({shown}) but no World; add "
+                                 f"mechnet.components.multibody.World(name='world') and connect its frame_b")
+        if len(worlds) > 1:
+            raise StructureError(f"the scene has {len(worlds)} Worlds ({', '.join(w.path for w in worlds)}); "
+                                 f"a scene has exactly one World: connect everything to one of them")
+        return worlds[0]
+
+    def span(self):
+        """Breadth-first spanning tree from the World's node; an edge between two visited nodes closes a loop."""
+        g = nx.MultiGraph()
+        g.add_nodes_from(range(len(self.members)))
+        for e in self.components:
+            if isinstance(e, self.PartialTreeEdge):
+                g.add_edge(self.node_of[e.frame_a], self.node_of[e.frame_b], key=e.path, comp=e)
+        root = self.node_of[self.world.frame_b]
+        self.parent = {root: None}          # node -> (edge, forward: parent is frame_a's side, parent node)
+        self.order = [root]
+        used = set()
+        for u in self.order:
+            for _, v, key, data in sorted(g.edges(u, keys=True, data=True), key=lambda item: item[2]):
+                if key in used:
+                    continue
+                used.add(key)
+                if v in self.parent:
+                    _loop_error(self.parent, u, v, key)
+                e = data["comp"]
+                self.parent[v] = (e, self.node_of[e.frame_a] == u, u)
+                self.order.append(v)
+        unreached = [k for k in range(len(self.members)) if k not in self.parent]
+        if unreached:
+            owners = sorted({c.owner for k in unreached for c in self.members[k]},
+                            key=lambda c: (not isinstance(c, self.PartialBody), c.path))
+            raise StructureError(
+                f"no path to the World ({self.world.path}) from "
+                + ", ".join(f"{c.path} ({type(c).__name__})" for c in owners[:6]) + (" …" if len(owners) > 6 else "")
+                + "; connect them to the world through joints or fixed translations")
+        self.children = {n: [] for n in self.order}
+        for n in self.order[1:]:
+            self.children[self.parent[n][2]].append(n)
+
+    def kinematics(self):
+        """Positions, orientations and velocities along the tree; links are nodes joined by rigid edges."""
+        root = self.order[0]
+        zero3 = ca.SX.zeros(3)
+        self.kin = {root: FrameKinematics(ca.SX.zeros(3), ca.SX.eye(3), zero3, zero3)}
+        self.link_of = {root: None}           # None: the world link (fixed)
+        self.link_nodes = {None: [root]}
+        self.joint = {}                       # link -> (joint, S = (angular, linear) axis, world axes)
+        self.coordinates = []
+        for n in self.order[1:]:
+            e, forward, p = self.parent[n]
+            kp = self.kin[p]
+            r_rel, R_rel = e.relative_motion()
+            if forward:
+                R = ca.mtimes(kp.R, R_rel)
+                r = kp.r + ca.mtimes(kp.R, r_rel)
+                Ra = kp.R
+            else:
+                R = ca.mtimes(kp.R, R_rel.T)
+                r = kp.r - ca.mtimes(R, r_rel)
+                Ra = R
+            w, v = kp.w, kp.v + _cross(kp.w, r - kp.r)
+            if e.dof:
+                s_ang, s_lin = e.motion_axes()
+                sign = 1.0 if forward else -1.0
+                S = sign * ca.vertcat(ca.mtimes(Ra, s_ang), ca.mtimes(Ra, s_lin))
+                qd = e.speed()
+                w, v = w + S[:3] * qd, v + S[3:] * qd
+                self.link_of[n] = e.path
+                self.link_nodes[e.path] = [n]
+                self.joint[e.path] = (e, S, forward, p)
+                self.coordinates.append((e.path, e.coordinate(), qd))
+            else:
+                self.link_of[n] = self.link_of[p]
+                self.link_nodes[self.link_of[p]].append(n)
+            name = self.members[n][0].label
+            self.kin[n] = FrameKinematics(self.let(r, f"{name}.r_0"), self.let(R, f"{name}.R"),
+                                          self.let(w, f"{name}.w_0"), self.let(v, f"{name}.v_0"))
+        self.bodies_at = {k: [] for k in range(len(self.members))}
+        self.loads_at = {k: [] for k in range(len(self.members))}
+        for c in self.frames:
+            if isinstance(c.owner, self.PartialBody):
+                self.bodies_at[self.node_of[c]].append(c.owner)
+            elif not isinstance(c.owner, (self.PartialTreeEdge, self.World)):
+                self.loads_at[self.node_of[c]].append(c)
+
+    # -- loads ------------------------------------------------------------------------------------------
+
+    def load(self, fr, n):
+        """The wrench a component's frame puts on node n (moment about n, force), world axes."""
+        R = self.kin[n].R
+        return ca.vertcat(-ca.mtimes(R, fr.t), -ca.mtimes(R, fr.f))
+
+    def body_terms(self, body, n, d):
+        """Spatial inertia about a point at −d from node n, velocity-product wrench, gravity wrench."""
+        m, r_cm, I = body.mass_properties()
+        k = self.kin[n]
+        c = d + ca.mtimes(k.R, r_cm)
+        C = _skew(c)
+        I_O = ca.mtimes(k.R, ca.mtimes(I, k.R.T)) - m * ca.mtimes(C, C)
+        gravity = m * self.world.gravity_at(k.r + ca.mtimes(k.R, r_cm))
+        return (_blocks(I_O, m * C, -m * C, m * ca.SX.eye(3)),
+                ca.vertcat(_cross(k.w, ca.mtimes(I_O, k.w)), m * _cross(k.w, _cross(k.w, c))),
+                ca.vertcat(_cross(c, gravity), gravity))
+
+    def ref(self, link):
+        return self.kin[self.link_nodes[link][0]]
+
+    def offset(self, link):
+        """From the parent link's reference point to this link's, and the parent link."""
+        parent_link = self.link_of[self.joint[link][3]]
+        return self.ref(link).r - self.ref(parent_link).r, parent_link
+
+    def velocity_terms(self, link):
+        """c_k: the acceleration of the link that the joint's motion adds at zero q̈ (Coriolis, centripetal)."""
+        e, S, _, _ = self.joint[link]
+        d, parent_link = self.offset(link)
+        wp = self.ref(parent_link).w
+        qd = e.speed()
+        return ca.vertcat(_cross(wp, S[:3] * qd), _cross(wp, _cross(wp, d)) + 2 * _cross(wp, S[3:] * qd))
+
+    # -- dynamics ---------------------------------------------------------------------------------------
+
+    def dynamics(self, tree):
+        moving = [self.link_of[n] for n in self.order[1:] if self.link_nodes.get(self.link_of[n], [None])[0] == n]
+        M, bias = {}, {}
+        for link in moving:
+            ref = self.ref(link)
+            Mk, bk = ca.SX.zeros(6, 6), ca.SX.zeros(6)
+            for n in self.link_nodes[link]:
+                d = self.kin[n].r - ref.r
+                for body in self.bodies_at[n]:
+                    Mb, bb, gb = self.body_terms(body, n, d)
+                    Mk, bk = Mk + Mb, bk + bb - gb
+                for fr in self.loads_at[n]:
+                    bk -= _transport_wrench(self.load(fr, n), d)
+            M[link], bias[link] = Mk, bk
+        self.A, P = {None: ca.SX.zeros(6)}, {}
+        for link in moving:
+            e, S, forward, _ = self.joint[link]
+            side = "frame_b" if forward else "frame_a"
+            self.A[link] = _new(tree, e, [f"{e.path}.{side}.z_0[{i}]" for i in range(3)] +
+                                [f"{e.path}.{side}.a_0[{i}]" for i in range(3)], ["rad/s2"] * 3 + ["m/s2"] * 3)
+            P[link] = _new(tree, e, [f"{e.path}.bias_wrench[{i}]" for i in range(6)], ["N*m"] * 3 + ["N"] * 3)
+        child_links = {link: [] for link in self.link_nodes}
+        for link in moving:
+            child_links[self.link_of[self.joint[link][3]]].append(link)
+        IA, Ia, U, D = {}, {}, {}, {}
+        for link in reversed(moving):                      # inward: articulated inertia and bias
+            e, S, _, _ = self.joint[link]
+            IA_k, p_k = M[link], bias[link]
+            for j in child_links[link]:
+                dj, _ = self.offset(j)
+                ej, Sj, _, _ = self.joint[j]
+                u_j = ej.axis_load() - ca.dot(Sj, P[j])
+                IA_k = IA_k + _transport_inertia(Ia[j], dj)
+                p_k = p_k + _transport_wrench(ca.mtimes(Ia[j], self.velocity_terms(j)) + P[j] + U[j] * u_j / D[j], dj)
+            IA[link] = IA_k = self.let(IA_k, f"{e.path}.articulated_inertia")
+            U[link] = ca.mtimes(IA_k, S)
+            D[link] = ca.dot(S, U[link])
+            Ia[link] = self.let(IA_k - ca.mtimes(U[link], U[link].T) / D[link], f"{e.path}.reduced_inertia")
+            _eq(tree, e, P[link] - p_k, "bias wrench of the subtree (articulated-body inward pass)")
+        for link in moving:                                # outward: joint and link accelerations
+            e, S, _, _ = self.joint[link]
+            d, parent_link = self.offset(link)
+            Ap = self.A[parent_link]
+            pre = ca.vertcat(Ap[:3], Ap[3:] + _cross(Ap[:3], d)) + self.velocity_terms(link)
+            qdd = der(e.speed())
+            _eq(tree, e, D[link] * qdd - (e.axis_load() - ca.dot(S, ca.mtimes(IA[link], pre) + P[link])),
+                "joint acceleration (articulated-body outward pass)", regular=True)
+            _eq(tree, e, self.A[link] - (pre + S * qdd), "link acceleration (articulated-body outward pass)")
+
+    # -- what leaves the equation system ------------------------------------------------------------------
+
+    def frame_values(self, tree):
+        """r_0 and R of every frame become expressions (and their derivatives, where `der` was taken)."""
+        from ..components.multibody.frames import to_row_major
+        from ..core.equation import existing_derivative
+        for c in self.frames:
+            k = self.kin[self.node_of[c]]
+            R9 = to_row_major(k.R)
+            Rdot9 = to_row_major(ca.mtimes(_skew(k.w), k.R))
+            for key, value, rate, unit in (("r_0", k.r, k.v, "m"), ("R", R9, Rdot9, "1")):
+                syms, values, rates = (ca.vertsplit(x) for x in (c._values[key], value, rate))
+                for i, (sym, val, dot) in enumerate(zip(syms, values, rates)):
+                    tree.replaced[sym.element_hash()] = val
+                    tree.observed.append((f"{c.label}.{key}[{i}]", sym, unit, val))
+                    d = existing_derivative(sym)
+                    if d is not None:
+                        tree.replaced[d.element_hash()] = dot
+
+    def cut_forces(self, tree):
+        """Cut forces of bodies, edges and the World: the wrench each subtree needs, built leaves → root."""
+        sub, flows = {}, {}              # flows: frame -> wrench into the component (moment, force), world axes
+        for n in reversed(self.order):
+            link = self.link_of[n]
+            ref = self.ref(link)
+            d = self.kin[n].r - ref.r
+            alpha, a_ref = self.A[link][:3], self.A[link][3:]
+            a_n = a_ref + _cross(alpha, d) + _cross(ref.w, _cross(ref.w, d))
+            W = ca.SX.zeros(6)
+            for body in self.bodies_at[n]:
+                Mb, bb, gb = self.body_terms(body, n, ca.SX.zeros(3))
+                flows[body.frame_a] = ca.mtimes(Mb, ca.vertcat(alpha, a_n)) + bb - gb
+                W += flows[body.frame_a]
+            for fr in self.loads_at[n]:
+                W -= self.load(fr, n)
+            for c in self.children[n]:
+                e, forward, _ = self.parent[c]
+                child_frame, parent_frame = (e.frame_b, e.frame_a) if forward else (e.frame_a, e.frame_b)
+                moved = _transport_wrench(sub[c], self.kin[c].r - self.kin[n].r)
+                flows[child_frame] = -sub[c]
+                flows[parent_frame] = moved
+                W += moved
+            sub[n] = W
+        root = self.order[0]
+        others = [c for c in self.members[root] if c is not self.world.frame_b]
+        total = sum((flows[c] if c in flows else -self.load(c, root) for c in others), ca.SX.zeros(6))
+        flows[self.world.frame_b] = -total
+        for fr, wrench in flows.items():
+            R = self.kin[self.node_of[fr]].R
+            for key, value, unit in (("f", ca.mtimes(R.T, wrench[3:]), "N"), ("t", ca.mtimes(R.T, wrench[:3]), "N*m")):
+                for i, (sym, val) in enumerate(zip(ca.vertsplit(fr._values[key]), ca.vertsplit(value))):
+                    tree.replaced[sym.element_hash()] = val
+                    tree.observed.append((f"{fr.label}.{key}[{i}]", sym, unit, val))
+
+
+def build_tree(components, graph: nx.Graph):
+    """The tree's variables, equations, substitutions and observed expressions; None without frames."""
+    t = _Tree(components, graph)
+    if not t.frames:
+        return None
+    t.span()
+    t.kinematics()
+    tree = MultibodyTree({c.label: t.kin[t.node_of[c]] for c in t.frames}, t.coordinates, len(t.joint),
+                         sum(isinstance(c, t.PartialBody) for c in components), t.world.path)
+    t.dynamics(tree)
+    t.frame_values(tree)
+    t.cut_forces(tree)
+    tree.intermediates = (tuple(t.let_symbols), tuple(t.let_values))
+    return tree
+
+
+def _new(tree, comp, names, units):
+    syms = []
+    for name, unit in zip(names, units):
+        s = ca.SX.sym(name)
+        syms.append(s)
+        tree.variables.append(FlatVariable(name=name, symbol=s, kind="algebraic", unit=unit, origin=comp.path,
+                                           component_type=type(comp).__name__))
+    return ca.vertcat(*syms)
+
+
+def _eq(tree, comp, residual, doc, regular=False):
+    residual = ca.reshape(ca.SX(residual), -1, 1)
+    label = f"{comp.path} ({type(comp).__name__}), tree equation"
+    for i in range(residual.numel()):
+        tree.equations.append(FlatEquation(residual[i], comp.path, label + (f"[{i}]" if residual.numel() > 1 else ""),
+                                           doc, regular=regular))
+
+
+def _loop_error(parent, u, v, key):
+    """Name the joints of the loop that the edge `key` (u–v) closes: the two tree paths to their meeting node."""
+    def path(n):
+        out = []
+        while parent[n] is not None:
+            e, _, p = parent[n]
+            out.append((n, e.path))
+            n = p
+        return out
+
+    pu, pv = path(u), path(v)
+    common = {n for n, _ in pu} & {n for n, _ in pv}
+    joints = [j for n, j in pu if n not in common] + [j for n, j in pv if n not in common] + [key]
+    raise StructureError(f"kinematic loop found through joints {', '.join(joints)} (closed by {key}); "
+                         f"kinematic loops are not supported yet: open the loop (remove one joint) "
+                         f"or replace a joint by a force element")
