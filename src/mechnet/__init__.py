@@ -5,6 +5,7 @@ from .core import (Across, Component, Connector, Eq, Input, Model, Output, Param
 from .core.errors import (ConnectError, FrozenModelError, HigherIndexError, InitializationError,
                           IntegrationError, InputError, MechnetError, NameConflictError, ParameterError, SceneError,
                           StructureError, UnbalancedModelError, UnknownNameError)
+from .kinematics import kinematics
 from .simulate import IntegrationWarning, Result
 
 __version__ = "0.1.0"
@@ -13,7 +14,7 @@ __all__ = ["Across", "CompileOptions", "CompiledModel", "Component", "ConnectErr
            "FrozenModelError", "HigherIndexError", "InitializationError", "Input", "InputError",
            "IntegrationError", "IntegrationWarning", "MechnetError", "Model", "NameConflictError", "Output",
            "Param", "ParameterError", "Port", "Result", "SceneError", "State", "StructureError", "Through",
-           "UnbalancedModelError", "UnknownNameError", "Var", "When", "compile", "der", "nonnegative",
+           "UnbalancedModelError", "UnknownNameError", "Var", "When", "compile", "der", "kinematics", "nonnegative",
            "positive", "time", "tunable"]
 
 

@@ -176,21 +176,35 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
 
 
 def _substitute_frames(equations: list, tree) -> None:
-    """Frame positions, orientations (and their rates) in component equations become tree expressions."""
-    touched = [k for k, eq in enumerate(equations)
-               if any(s.element_hash() in tree.replaced for s in ca.symvar(eq.residual))]
-    if not touched:
-        return
-    olds, news = [], []
-    seen = set()
-    for k in touched:
-        for s in ca.symvar(equations[k].residual):
+    """Frame positions and orientations in component equations become tree expressions, and `der` of
+    them the tree's velocities (so a damper or a velocity sensor needs no differentiation)."""
+    def value_of(s):
+        h = s.element_hash()
+        if h in tree.replaced:
+            return tree.replaced[h]
+        parent = derivative_parent(s)
+        if parent is not None and parent.element_hash() in tree.rates:
+            return tree.rates[parent.element_hash()]
+        return None
+
+    olds, news, touched, seen = [], [], [], set()
+    for k, eq in enumerate(equations):
+        hit = False
+        for s in ca.symvar(eq.residual):
             h = s.element_hash()
-            if h in tree.replaced and h not in seen:
+            if h in seen:
+                hit = True
+                continue
+            v = value_of(s)
+            if v is not None:
                 seen.add(h)
                 olds.append(s)
-                news.append(tree.replaced[h])
+                news.append(v)
+                hit = True
+        if hit:
+            touched.append(k)
+    if not touched:
+        return
     out = ca.substitute(ca.vertcat(*[equations[k].residual for k in touched]), ca.vertcat(*olds), ca.vertcat(*news))
     for j, k in enumerate(touched):
         equations[k] = replace(equations[k], residual=out[j])
-

@@ -64,6 +64,7 @@ class MultibodyTree:
     variables: list = field(default_factory=list)      # new unknowns (link accelerations, bias wrenches)
     equations: list = field(default_factory=list)      # the recursion, local equations
     replaced: dict = field(default_factory=dict)       # element hash of a frame symbol -> expression
+    rates: dict = field(default_factory=dict)          # element hash of a frame symbol -> its time derivative
     observed: list = field(default_factory=list)       # (name, symbol, unit, expression) leaving the system
     intermediates: tuple = ((), ())                    # (symbols, definitions): state-only quantities, in order
 
@@ -320,7 +321,6 @@ class _Tree:
     def frame_values(self, tree):
         """r_0 and R of every frame become expressions (and their derivatives, where `der` was taken)."""
         from ..components.multibody.frames import to_row_major
-        from ..core.equation import existing_derivative
         for c in self.frames:
             k = self.kin[self.node_of[c]]
             R9 = to_row_major(k.R)
@@ -330,9 +330,7 @@ class _Tree:
                 for i, (sym, val, dot) in enumerate(zip(syms, values, rates)):
                     tree.replaced[sym.element_hash()] = val
                     tree.observed.append((f"{c.label}.{key}[{i}]", sym, unit, val))
-                    d = existing_derivative(sym)
-                    if d is not None:
-                        tree.replaced[d.element_hash()] = dot
+                    tree.rates[sym.element_hash()] = dot
 
     def cut_forces(self, tree):
         """Cut forces of bodies, edges and the World: the wrench each subtree needs, built leaves → root."""
@@ -370,6 +368,47 @@ class _Tree:
                     tree.observed.append((f"{fr.label}.{key}[{i}]", sym, unit, val))
 
 
+def _scene_sensors(self, tree):
+    """SystemEnergy and SystemMomentum: sums over the bodies (and the force elements' stored energy)."""
+    from ..components.multibody.sensors import PartialSceneSensor, SystemEnergy, SystemMomentum
+    sensors = [c for c in self.components if isinstance(c, PartialSceneSensor)]
+    if not sensors:
+        return
+    kinetic, potential = ca.SX(0), ca.SX(0)
+    parts = []                                   # (m, r_cm world, v_cm world, I_cm world, ω)
+    for n, bodies in self.bodies_at.items():
+        k = self.kin[n]
+        for body in bodies:
+            m, r_cm, I = body.mass_properties()
+            c = ca.mtimes(k.R, r_cm)
+            rc, vc = k.r + c, k.v + _cross(k.w, c)
+            Iw = ca.mtimes(k.R, ca.mtimes(I, k.R.T))
+            parts.append((m, rc, vc, Iw, k.w))
+            kinetic += 0.5 * m * ca.dot(vc, vc) + 0.5 * ca.dot(k.w, ca.mtimes(Iw, k.w))
+            if self.world.point_gravity:
+                potential -= self.world.mue * m / ca.norm_2(rc)
+            else:
+                potential -= m * ca.dot(self.world.g, rc)
+    for comp in self.components:
+        stored = getattr(comp, "potential_energy", None)
+        if callable(stored) and stored() is not None:
+            potential += stored()
+    for sensor in sensors:
+        if isinstance(sensor, SystemEnergy):
+            _eq(tree, sensor, sensor.kinetic - kinetic, "kinetic energy of all bodies")
+            _eq(tree, sensor, sensor.potential - potential, "potential energy: gravity and force elements")
+            _eq(tree, sensor, sensor.total - kinetic - potential, "total mechanical energy")
+        elif isinstance(sensor, SystemMomentum):
+            p = sum((m * vc for m, _, vc, _, _ in parts), ca.SX.zeros(3))
+            L = sum((_cross(rc - sensor.point, m * vc) + ca.mtimes(Iw, w) for m, rc, vc, Iw, w in parts),
+                    ca.SX.zeros(3))
+            _eq(tree, sensor, sensor.p - p, "linear momentum")
+            _eq(tree, sensor, sensor.L - L, "angular momentum about the point")
+
+
+_Tree.scene_sensors = _scene_sensors
+
+
 def build_tree(components, graph: nx.Graph):
     """The tree's variables, equations, substitutions and observed expressions; None without frames."""
     t = _Tree(components, graph)
@@ -382,6 +421,7 @@ def build_tree(components, graph: nx.Graph):
     t.dynamics(tree)
     t.frame_values(tree)
     t.cut_forces(tree)
+    t.scene_sensors(tree)
     tree.intermediates = (tuple(t.let_symbols), tuple(t.let_values))
     return tree
 

@@ -44,6 +44,7 @@ def axis_rotation(n, angle):
                 term = (1 - c) * nn[i, j]
             if k[i, j] != 0:
                 term = term + s * k[i, j]
+            term = ca.SX(term)
             if not (term.is_constant() and float(term) == 0.0):
                 out[i, j] = term
     return out

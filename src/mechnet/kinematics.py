@@ -1,0 +1,55 @@
+"""Kinematic analysis: every frame's position, orientation and velocity for given joint coordinates.
+
+No dynamics are evaluated: the tree pass already holds each frame as an
+expression of the joint coordinates and speeds, and this evaluates them.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from .core.errors import SceneError, UnknownNameError
+
+
+def kinematics(cm, q: dict | None = None, qd: dict | None = None, params: dict | None = None) -> dict:
+    """{frame label: {"r_0", "R", "v_0", "w_0"}} (world components) at joint coordinates `q` and speeds `qd`.
+
+    `q` and `qd` map joint paths (e.g. "arm.rev1") to a value; unspecified
+    joints take their start values (or 0). `params` sets tunable parameters.
+    """
+    flat = cm.stages["flat"]
+    tree = flat.multibody
+    if tree is None:
+        raise SceneError(f"model {cm.name!r} has no multibody frames: nothing for kinematics() to evaluate")
+    joints = {path: (qs, qds) for path, qs, qds in tree.coordinates}
+    for given, what in ((q or {}, "q"), (qd or {}, "qd")):
+        unknown = sorted(set(given) - set(joints))
+        if unknown:
+            raise UnknownNameError(f"kinematics({what}=...): {', '.join(unknown)} is not a joint of the tree; "
+                                   f"joints: {', '.join(joints) or 'none'}")
+    starts = cm.dae.starts
+    by_symbol = {v.symbol.element_hash(): v.name for v in flat.variables}
+    q_syms = [qs for qs, _ in joints.values()] + [qds for _, qds in joints.values()]
+    q_vals = []
+    for path, (qs, qds) in joints.items():
+        q_vals.append(float((q or {}).get(path, starts.get(by_symbol.get(qs.element_hash()), 0.0) or 0.0)))
+    for path, (qs, qds) in joints.items():
+        q_vals.append(float((qd or {}).get(path, starts.get(by_symbol.get(qds.element_hash()), 0.0) or 0.0)))
+    labels = sorted(tree.frames)
+    outs = []
+    for label in labels:
+        k = tree.frames[label]
+        outs.extend([k.r, ca.reshape(k.R, 9, 1), k.v, k.w])
+    stacked = flat.expand([ca.vertcat(*outs)])[0]
+    p_syms = [p.symbol for p in flat.parameters]
+    p_vals = [float((params or {}).get(p.name, p.value)) for p in flat.parameters]
+    fn = ca.Function("kinematics", [ca.vertcat(*q_syms) if q_syms else ca.SX(0, 1),
+                                    ca.vertcat(*p_syms) if p_syms else ca.SX(0, 1)], [stacked])
+    values = np.asarray(fn(q_vals, p_vals), dtype=float).ravel()
+    out, i = {}, 0
+    for label in labels:
+        r, R, v, w = values[i:i + 3], values[i + 3:i + 12].reshape(3, 3, order="F"), values[i + 12:i + 15], \
+            values[i + 15:i + 18]
+        out[label] = {"r_0": r, "R": R, "v_0": v, "w_0": w}
+        i += 18
+    return out
