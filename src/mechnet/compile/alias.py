@@ -238,7 +238,8 @@ def simplify(flat: FlatSystem, options: SimplifyOptions = SimplifyOptions()) -> 
     reduced = FlatSystem(flat.name, variables, equations, flat.parameters, der_of, flat.time,
                          flat.effects, stage="simplify", time_events=flat.time_events,
                          folded_parameters=flat.folded_parameters, zero_crossings=zero_crossings,
-                         intermediates=flat.intermediates)
+                         intermediates=flat.intermediates, multibody=flat.multibody,
+                         observed_only=flat.observed_only)
     return reduced, AliasMap(expressions, n_alias, n_const, removed + (len(flat.equations) - len(equations) - removed))
 
 

@@ -103,7 +103,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
         else:
             exprs.append(aliases.expressions[v.name])
     if original.observed_only:
-        extra = ca.vertcat(*[expr for _, _, _, expr in original.observed_only])
+        extra = original.expand([ca.vertcat(*[expr for _, _, _, expr in original.observed_only])])[0]
         gone = [v for v in original.variables if v.name not in survivor]
         if gone:
             extra = ca.substitute(extra, ca.vertcat(*[v.symbol for v in gone]),

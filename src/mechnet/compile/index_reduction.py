@@ -373,8 +373,29 @@ class SelectionFactory:
         for i, (jj, c) in self.flat.der_of.items():
             if jj is None:
                 der_of[i] = (None, c)
-        return replace(self.flat, variables=tuple(self.variables), equations=tuple(self.equations),
-                       der_of=der_of, stage="reduce")
+        built = replace(self.flat, variables=tuple(self.variables), equations=tuple(self.equations),
+                        der_of=der_of, stage="reduce")
+        return expand_unless_states(built)
+
+
+def expand_unless_states(flat: FlatSystem) -> FlatSystem:
+    """The tree's intermediates stand for expressions of the joint coordinates and speeds, which the
+    later stages may treat as known only while those are states. When a selection makes one of them a
+    dummy (a joint driven by a prescribed motion, or geared to a motor that keeps the state), the
+    equations get the expressions themselves: correct, at the price of larger residuals."""
+    syms, _ = flat.intermediates
+    if not syms or flat.multibody is None:
+        return flat
+    states = {flat.variables[i].symbol.element_hash() for i in flat.der_of}
+    needed = [s for _, q, qd in flat.multibody.coordinates for s in (q, qd)]
+    if all(s.element_hash() in states for s in needed):
+        return flat
+    touched = [k for k, eq in enumerate(flat.equations) if flat.uses_intermediates(eq.residual)]
+    expanded = flat.expand([flat.equations[k].residual for k in touched])
+    equations = list(flat.equations)
+    for k, r in zip(touched, expanded):
+        equations[k] = replace(equations[k], residual=r)
+    return replace(flat, equations=tuple(equations), intermediates=((), ()))
 
 
 def _differentiate(source: FlatEquation, flat, graph, parent, symbols, derivative_expr, order) -> FlatEquation:
