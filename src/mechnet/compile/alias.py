@@ -19,7 +19,7 @@ from ..core.errors import StructureError
 from .artifacts import AliasMap, FlatSystem
 
 _KIND_RANK = {"state": 4, "algebraic": 3, "output": 2, "across": 1, "through": 1, "derivative": 0}
-_PRIORITY_RANK = {"prefer": 3, "default": 2, "avoid": 1, "never": 0}
+_PRIORITY_RANK = {"always": 4, "prefer": 3, "default": 2, "avoid": 1, "never": 0}
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ import numpy as np
 from ..core.errors import StructureError
 from .artifacts import FlatEquation, FlatSystem, FlatVariable
 
-_DUMMY_PREFERENCE = {"never": 0, "avoid": 1, "default": 2, "prefer": 3}
+_DUMMY_PREFERENCE = {"never": 0, "avoid": 1, "default": 2, "prefer": 3, "always": 4}
 
 
 @dataclass(frozen=True)

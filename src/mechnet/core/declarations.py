@@ -155,8 +155,8 @@ class Variable(Declaration):
     def __init__(self, *, unit="1", doc="", start: float = 0.0, nominal: float = 1.0,
                  priority: str = "default", shape: int = 1):
         super().__init__(unit=unit, doc=doc, shape=shape)
-        if priority not in ("prefer", "default", "avoid", "never"):
-            raise ValueError(f"priority {priority!r}: expected prefer, default, avoid or never")
+        if priority not in ("always", "prefer", "default", "avoid", "never"):
+            raise ValueError(f"priority {priority!r}: expected always, prefer, default, avoid or never")
         self.start = start
         self.nominal = nominal
         self.priority = priority

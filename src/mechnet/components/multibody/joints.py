@@ -1,5 +1,9 @@
 """Joints (Modelica.Mechanics.MultiBody.Joints): the tree's edges with degrees of freedom.
 
+Joint coordinates and speeds are states by preference over anything geared
+to them (priority "always", Modelica's StateSelect.always): the tree's
+recursion then stays O(N) with motors attached.
+
 A joint is massless. Its coordinate and speed are states (`phi_start`,
 `w_start` fix them); its axis torque (or force) is zero unless
 `use_flange=True`, which exposes a 1D `axis` flange and its `support`, so
@@ -31,8 +35,8 @@ class Revolute(PartialJoint):
     use_flange = Flag(False, doc="expose the 1D flanges axis and support to drive the joint")
     axis = Port(RotationalFlange, enabled_by="use_flange", doc="1D flange driving the joint angle")
     support = Port(RotationalFlange, enabled_by="use_flange", doc="1D support flange (reaction)")
-    phi = State(unit="rad", doc="rotation angle of frame_b relative to frame_a")
-    w = State(unit="rad/s", doc="relative angular speed der(phi)")
+    phi = State(unit="rad", priority="always", doc="rotation angle of frame_b relative to frame_a")
+    w = State(unit="rad/s", priority="always", doc="relative angular speed der(phi)")
     tau = Var(unit="N*m", doc="driving torque about the axis (from the axis flange)")
 
     def relative_motion(self):
@@ -65,8 +69,8 @@ class Prismatic(PartialJoint):
     use_flange = Flag(False, doc="expose the 1D flanges axis and support to drive the joint")
     axis = Port(TranslationalFlange, enabled_by="use_flange", doc="1D flange driving the joint distance")
     support = Port(TranslationalFlange, enabled_by="use_flange", doc="1D support flange (reaction)")
-    s = State(unit="m", doc="distance of frame_b from frame_a along n")
-    v = State(unit="m/s", doc="relative speed der(s)")
+    s = State(unit="m", priority="always", doc="distance of frame_b from frame_a along n")
+    v = State(unit="m/s", priority="always", doc="relative speed der(s)")
     f = Var(unit="N", doc="driving force along the axis (from the axis flange)")
 
     def relative_motion(self):
