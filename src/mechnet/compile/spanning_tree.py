@@ -301,6 +301,11 @@ class _Tree:
                 u_j = ej.axis_load() - ca.dot(Sj, P[j])
                 IA_k = IA_k + _transport_inertia(Ia[j], dj)
                 p_k = p_k + _transport_wrench(ca.mtimes(Ia[j], self.velocity_terms(j)) + P[j] + U[j] * u_j / D[j], dj)
+            if ca.SX(ca.dot(S, ca.mtimes(IA_k, S))).is_zero() and not getattr(e, "use_flange", False):
+                raise StructureError(
+                    f"joint {e.path} ({type(e).__name__}) moves no mass: nothing beyond it has mass (or inertia "
+                    f"about its axis), so its acceleration is undetermined; attach a Body beyond the joint, or "
+                    f"drive it through its flange (use_flange=True)")
             IA[link] = IA_k = self.let(IA_k, f"{e.path}.articulated_inertia")
             U[link] = ca.mtimes(IA_k, S)
             D[link] = ca.dot(S, U[link])
@@ -321,15 +326,19 @@ class _Tree:
     def frame_values(self, tree):
         """r_0 and R of every frame become expressions (and their derivatives, where `der` was taken)."""
         from ..components.multibody.frames import to_row_major
+        per_node = {}
         for c in self.frames:
-            k = self.kin[self.node_of[c]]
-            R9 = to_row_major(k.R)
-            Rdot9 = to_row_major(ca.mtimes(_skew(k.w), k.R))
-            for key, value, rate, unit in (("r_0", k.r, k.v, "m"), ("R", R9, Rdot9, "1")):
-                syms, values, rates = (ca.vertsplit(x) for x in (c._values[key], value, rate))
-                for i, (sym, val, dot) in enumerate(zip(syms, values, rates)):
+            n = self.node_of[c]
+            if n not in per_node:
+                k = self.kin[n]
+                per_node[n] = [(key, ca.vertsplit(value), ca.vertsplit(rate), unit) for key, value, rate, unit in (
+                    ("r_0", k.r, k.v, "m"),
+                    ("R", to_row_major(k.R), to_row_major(ca.mtimes(_skew(k.w), k.R)), "1"))]
+            label = c.label
+            for key, values, rates, unit in per_node[n]:
+                for i, (sym, val, dot) in enumerate(zip(ca.vertsplit(c._values[key]), values, rates)):
                     tree.replaced[sym.element_hash()] = val
-                    tree.observed.append((f"{c.label}.{key}[{i}]", sym, unit, val))
+                    tree.observed.append((f"{label}.{key}[{i}]", sym, unit, val))
                     tree.rates[sym.element_hash()] = dot
 
     def cut_forces(self, tree):
