@@ -140,7 +140,7 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
 
     zero_crossings = []
     for comp, k, when, label in whens:
-        g = ca.SX(when.condition)
+        g = _frames_in(ca.SX(when.condition), tree)
         if g.numel() != 1:
             raise StructureError(f"{label}, event {k + 1}: the When condition must be a scalar expression")
         for s in ca.symvar(g):
@@ -153,7 +153,7 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
             if not (target.is_scalar() and target.is_symbolic()) or target.element_hash() not in by_hash:
                 raise StructureError(f"{label}, event {k + 1}: reset targets must be variables of the model "
                                      f"(got {target})")
-            value = ca.SX(value)
+            value = _frames_in(ca.SX(value), tree)
             if value.numel() != 1:
                 raise StructureError(f"{label}, event {k + 1}: the new value of {target} must be a scalar")
             for s in ca.symvar(value):
@@ -173,6 +173,15 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
                       folded_parameters=tuple(folded), zero_crossings=tuple(zero_crossings),
                       multibody=tree, observed_only=tuple(tree.observed) if tree is not None else (),
                       intermediates=tree.intermediates if tree is not None else ((), ()))
+
+
+def _frames_in(expr, tree):
+    """An event condition or reset value with frame quantities replaced by the tree's expressions."""
+    if tree is None:
+        return expr
+    holder = [FlatEquation(expr, "", "")]
+    _substitute_frames(holder, tree)
+    return holder[0].residual
 
 
 def _substitute_frames(equations: list, tree) -> None:

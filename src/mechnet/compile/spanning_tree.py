@@ -123,6 +123,7 @@ class _Tree:
         self.world = self._the_world(components) if self.frames else None
         self.components = components
         self.let_symbols, self.let_values = [], []
+        self._body_cache, self._velocity_cache = {}, {}
 
     def let(self, expr, name):
         """Hide a state-only expression behind named symbols, entry by entry (numbers stay numbers, so
@@ -187,8 +188,8 @@ class _Tree:
     def kinematics(self):
         """Positions, orientations and velocities along the tree; links are nodes joined by rigid edges."""
         root = self.order[0]
-        zero3 = ca.SX.zeros(3)
-        self.kin = {root: FrameKinematics(ca.SX.zeros(3), ca.SX.eye(3), zero3, zero3)}
+        zero3 = ca.densify(ca.SX.zeros(3))
+        self.kin = {root: FrameKinematics(zero3, ca.densify(ca.SX.eye(3)), zero3, zero3)}
         self.link_of = {root: None}           # None: the world link (fixed)
         self.link_nodes = {None: [root]}
         self.joint = {}                       # link -> (joint, S = (angular, linear) axis, world axes)
@@ -197,7 +198,12 @@ class _Tree:
             e, forward, p = self.parent[n]
             kp = self.kin[p]
             r_rel, R_rel = e.relative_motion()
-            if forward:
+            same_axes = e.dof == 0 and ca.SX(R_rel).is_eye()      # a pure translation keeps the orientation
+            if same_axes:
+                R = kp.R
+                r = kp.r + ca.mtimes(kp.R, r_rel) if forward else kp.r - ca.mtimes(kp.R, r_rel)
+                Ra = kp.R
+            elif forward:
                 R = ca.mtimes(kp.R, R_rel)
                 r = kp.r + ca.mtimes(kp.R, r_rel)
                 Ra = kp.R
@@ -220,8 +226,8 @@ class _Tree:
                 self.link_of[n] = self.link_of[p]
                 self.link_nodes[self.link_of[p]].append(n)
             name = self.members[n][0].label
-            self.kin[n] = FrameKinematics(self.let(r, f"{name}.r_0"), self.let(R, f"{name}.R"),
-                                          self.let(w, f"{name}.w_0"), self.let(v, f"{name}.v_0"))
+            self.kin[n] = FrameKinematics(self.let(r, f"{name}.r_0"), R if same_axes else self.let(R, f"{name}.R"),
+                                          w if not e.dof else self.let(w, f"{name}.w_0"), self.let(v, f"{name}.v_0"))
         self.bodies_at = {k: [] for k in range(len(self.members))}
         self.loads_at = {k: [] for k in range(len(self.members))}
         for c in self.frames:
@@ -239,15 +245,27 @@ class _Tree:
 
     def body_terms(self, body, n, d):
         """Spatial inertia about a point at −d from node n, velocity-product wrench, gravity wrench."""
+        key = (id(body), d is None)
+        if d is None and key in self._body_cache:
+            return self._body_cache[key]
         m, r_cm, I = body.mass_properties()
         k = self.kin[n]
-        c = d + ca.mtimes(k.R, r_cm)
+        offset = ca.mtimes(k.R, r_cm) if not ca.DM(r_cm).is_zero() else None
+        if d is None:
+            c = offset if offset is not None else ca.SX.zeros(3)
+        else:
+            c = d + offset if offset is not None else d
         C = _skew(c)
-        I_O = ca.mtimes(k.R, ca.mtimes(I, k.R.T)) - m * ca.mtimes(C, C)
-        gravity = m * self.world.gravity_at(k.r + ca.mtimes(k.R, r_cm))
-        return (_blocks(I_O, m * C, -m * C, m * ca.SX.eye(3)),
-                ca.vertcat(_cross(k.w, ca.mtimes(I_O, k.w)), m * _cross(k.w, _cross(k.w, c))),
-                ca.vertcat(_cross(c, gravity), gravity))
+        I_O = -m * ca.mtimes(C, C)
+        if not ca.DM(I).is_zero():
+            I_O = I_O + ca.mtimes(k.R, ca.mtimes(I, k.R.T))
+        gravity = m * self.world.gravity_at(k.r + offset if offset is not None else k.r)
+        out = (_blocks(I_O, m * C, -m * C, m * ca.SX.eye(3)),
+               ca.vertcat(_cross(k.w, ca.mtimes(I_O, k.w)), m * _cross(k.w, _cross(k.w, c))),
+               ca.vertcat(_cross(c, gravity), gravity))
+        if d is None:
+            self._body_cache[key] = out
+        return out
 
     def ref(self, link):
         return self.kin[self.link_nodes[link][0]]
@@ -259,11 +277,14 @@ class _Tree:
 
     def velocity_terms(self, link):
         """c_k: the acceleration of the link that the joint's motion adds at zero q̈ (Coriolis, centripetal)."""
-        e, S, _, _ = self.joint[link]
-        d, parent_link = self.offset(link)
-        wp = self.ref(parent_link).w
-        qd = e.speed()
-        return ca.vertcat(_cross(wp, S[:3] * qd), _cross(wp, _cross(wp, d)) + 2 * _cross(wp, S[3:] * qd))
+        if link not in self._velocity_cache:
+            e, S, _, _ = self.joint[link]
+            d, parent_link = self.offset(link)
+            wp = self.ref(parent_link).w
+            qd = e.speed()
+            self._velocity_cache[link] = ca.vertcat(_cross(wp, S[:3] * qd),
+                                                    _cross(wp, _cross(wp, d)) + 2 * _cross(wp, S[3:] * qd))
+        return self._velocity_cache[link]
 
     # -- dynamics ---------------------------------------------------------------------------------------
 
@@ -352,7 +373,7 @@ class _Tree:
             a_n = a_ref + _cross(alpha, d) + _cross(ref.w, _cross(ref.w, d))
             W = ca.SX.zeros(6)
             for body in self.bodies_at[n]:
-                Mb, bb, gb = self.body_terms(body, n, ca.SX.zeros(3))
+                Mb, bb, gb = self.body_terms(body, n, None)
                 flows[body.frame_a] = ca.mtimes(Mb, ca.vertcat(alpha, a_n)) + bb - gb
                 W += flows[body.frame_a]
             for fr in self.loads_at[n]:
@@ -376,46 +397,42 @@ class _Tree:
                     tree.replaced[sym.element_hash()] = val
                     tree.observed.append((f"{fr.label}.{key}[{i}]", sym, unit, val))
 
-
-def _scene_sensors(self, tree):
-    """SystemEnergy and SystemMomentum: sums over the bodies (and the force elements' stored energy)."""
-    from ..components.multibody.sensors import PartialSceneSensor, SystemEnergy, SystemMomentum
-    sensors = [c for c in self.components if isinstance(c, PartialSceneSensor)]
-    if not sensors:
-        return
-    kinetic, potential = ca.SX(0), ca.SX(0)
-    parts = []                                   # (m, r_cm world, v_cm world, I_cm world, ω)
-    for n, bodies in self.bodies_at.items():
-        k = self.kin[n]
-        for body in bodies:
-            m, r_cm, I = body.mass_properties()
-            c = ca.mtimes(k.R, r_cm)
-            rc, vc = k.r + c, k.v + _cross(k.w, c)
-            Iw = ca.mtimes(k.R, ca.mtimes(I, k.R.T))
-            parts.append((m, rc, vc, Iw, k.w))
-            kinetic += 0.5 * m * ca.dot(vc, vc) + 0.5 * ca.dot(k.w, ca.mtimes(Iw, k.w))
-            if self.world.point_gravity:
-                potential -= self.world.mue * m / ca.norm_2(rc)
-            else:
-                potential -= m * ca.dot(self.world.g, rc)
-    for comp in self.components:
-        stored = getattr(comp, "potential_energy", None)
-        if callable(stored) and stored() is not None:
-            potential += stored()
-    for sensor in sensors:
-        if isinstance(sensor, SystemEnergy):
-            _eq(tree, sensor, sensor.kinetic - kinetic, "kinetic energy of all bodies")
-            _eq(tree, sensor, sensor.potential - potential, "potential energy: gravity and force elements")
-            _eq(tree, sensor, sensor.total - kinetic - potential, "total mechanical energy")
-        elif isinstance(sensor, SystemMomentum):
-            p = sum((m * vc for m, _, vc, _, _ in parts), ca.SX.zeros(3))
-            L = sum((_cross(rc - sensor.point, m * vc) + ca.mtimes(Iw, w) for m, rc, vc, Iw, w in parts),
-                    ca.SX.zeros(3))
-            _eq(tree, sensor, sensor.p - p, "linear momentum")
-            _eq(tree, sensor, sensor.L - L, "angular momentum about the point")
-
-
-_Tree.scene_sensors = _scene_sensors
+    def scene_sensors(self, tree):
+        """SystemEnergy and SystemMomentum: sums over the bodies (and the force elements' stored energy)."""
+        from ..components.multibody.sensors import PartialSceneSensor, SystemEnergy, SystemMomentum
+        sensors = [c for c in self.components if isinstance(c, PartialSceneSensor)]
+        if not sensors:
+            return
+        kinetic, potential = ca.SX(0), ca.SX(0)
+        parts = []                                   # (m, r_cm world, v_cm world, I_cm world, ω)
+        for n, bodies in self.bodies_at.items():
+            k = self.kin[n]
+            for body in bodies:
+                m, r_cm, I = body.mass_properties()
+                c = ca.mtimes(k.R, r_cm)
+                rc, vc = k.r + c, k.v + _cross(k.w, c)
+                Iw = ca.mtimes(k.R, ca.mtimes(I, k.R.T))
+                parts.append((m, rc, vc, Iw, k.w))
+                kinetic += 0.5 * m * ca.dot(vc, vc) + 0.5 * ca.dot(k.w, ca.mtimes(Iw, k.w))
+                if self.world.point_gravity:
+                    potential -= self.world.mue * m / ca.norm_2(rc)
+                else:
+                    potential -= m * ca.dot(self.world.g, rc)
+        for comp in self.components:
+            stored = getattr(comp, "potential_energy", None)
+            if callable(stored) and stored() is not None:
+                potential += stored()
+        for sensor in sensors:
+            if isinstance(sensor, SystemEnergy):
+                _eq(tree, sensor, sensor.kinetic - kinetic, "kinetic energy of all bodies")
+                _eq(tree, sensor, sensor.potential - potential, "potential energy: gravity and force elements")
+                _eq(tree, sensor, sensor.total - kinetic - potential, "total mechanical energy")
+            elif isinstance(sensor, SystemMomentum):
+                p = sum((m * vc for m, _, vc, _, _ in parts), ca.SX.zeros(3))
+                L = sum((_cross(rc - sensor.point, m * vc) + ca.mtimes(Iw, w) for m, rc, vc, Iw, w in parts),
+                        ca.SX.zeros(3))
+                _eq(tree, sensor, sensor.p - p, "linear momentum")
+                _eq(tree, sensor, sensor.L - L, "angular momentum about the point")
 
 
 def build_tree(components, graph: nx.Graph):

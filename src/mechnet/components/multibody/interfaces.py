@@ -30,7 +30,8 @@ class Frame(Connector):
     R = Across(unit="1", shape=9, priority="avoid", nominal=1.0,
                doc="orientation: the frame axes as columns, resolved in world (row-major, v_0 = R·v)")
     f = Through(unit="N", shape=3, doc="cut force, resolved in the frame, positive into the component")
-    t = Through(unit="N*m", shape=3, doc="cut torque about the origin, resolved in the frame, positive into the component")
+    t = Through(unit="N*m", shape=3,
+                doc="cut torque about the origin, resolved in the frame, positive into the component")
 
     def rotation(self) -> ca.SX:
         """R as a 3x3 matrix."""
