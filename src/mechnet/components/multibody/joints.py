@@ -20,7 +20,7 @@ from ...core.equation import Eq, der
 from ..rotational.interfaces import Flange as RotationalFlange
 from ..translational.interfaces import Flange as TranslationalFlange
 from .frames import axis_rotation
-from .interfaces import PartialJoint
+from .interfaces import PartialJoint, PartialTreeEdge
 from .parts import nonzero_vector
 
 
