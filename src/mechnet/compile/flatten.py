@@ -109,7 +109,6 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
         for var in tree.variables:
             add_variable(var)
         equations.extend(tree.equations)
-        effects["multibody tree (links)"] = tree.links
 
     # derivative symbols become variables; anything else unknown is a user error
     param_hashes = {p.symbol.element_hash() for p in parameters}
