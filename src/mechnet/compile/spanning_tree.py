@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 import networkx as nx
+import numpy as np
 
 from ..core.equation import der
 from ..core.errors import StructureError
@@ -124,6 +125,7 @@ class _Tree:
         self.components = components
         self.let_symbols, self.let_values = [], []
         self._body_cache, self._velocity_cache = {}, {}
+        self._pivots = []                     # (joint, D, scale): checked numerically once the tree is built
 
     def let(self, expr, name):
         """Hide a state-only expression behind named symbols, entry by entry (numbers stay numbers, so
@@ -330,6 +332,10 @@ class _Tree:
             IA[link] = IA_k = self.let(IA_k, f"{e.path}.articulated_inertia")
             U[link] = ca.mtimes(IA_k, S)
             D[link] = ca.dot(S, U[link])
+            if not getattr(e, "use_flange", False):
+                rotates = ca.DM(e.motion_axes()[1]).is_zero()       # revolute: kg·m²; prismatic: kg
+                scale = ca.trace(IA_k[:3, :3]) if rotates else ca.trace(IA_k[3:, 3:]) / 3
+                self._pivots.append((e, D[link], scale))
             Ia[link] = self.let(IA_k - ca.mtimes(U[link], U[link].T) / D[link], f"{e.path}.reduced_inertia")
             _eq(tree, e, P[link] - p_k, "bias wrench of the subtree (articulated-body inward pass)")
         for link in moving:                                # outward: joint and link accelerations
@@ -397,6 +403,30 @@ class _Tree:
                     tree.replaced[sym.element_hash()] = val
                     tree.observed.append((f"{fr.label}.{key}[{i}]", sym, unit, val))
 
+    def check_pivots(self):
+        """A joint whose moving side has no mass or inertia along its freedom has D = 0 everywhere: its
+        acceleration is undetermined. Exact zeros are caught while building; this catches the numerical
+        ones (a mass on a tilted axis), at two random configurations, relative to the subtree's inertia."""
+        if not self._pivots:
+            return
+        q = ca.vertcat(*[qs for _, qs, _ in self.coordinates])
+        tunables = [(sym, value) for c in self.components for sym, value in c.tunable.values()]
+        p = ca.vertcat(*[sym for sym, _ in tunables]) if tunables else ca.SX(0, 1)
+        exprs = ca.vertcat(*[ca.vertcat(D, scale) for _, D, scale in self._pivots])
+        _, (exprs,) = ca.substitute_inplace(self.let_symbols, self.let_values, [exprs], False)
+        speeds = ca.vertcat(*[qds for _, _, qds in self.coordinates])
+        exprs = ca.substitute(exprs, speeds, ca.DM.zeros(speeds.numel()))
+        fn = ca.Function("pivots", [q, p], [exprs])
+        rng = np.random.default_rng(12345)
+        values = [np.asarray(fn(rng.uniform(-np.pi, np.pi, q.numel()), [v for _, v in tunables])).ravel()
+                  for _ in range(2)]
+        for k, (e, _, _) in enumerate(self._pivots):
+            if all(abs(v[2 * k]) <= 1e-12 * max(abs(v[2 * k + 1]), 1e-300) for v in values):
+                raise StructureError(
+                    f"joint {e.path} ({type(e).__name__}) moves no mass: what lies beyond it has no mass "
+                    f"(or inertia) along its axis, so its acceleration is undetermined; attach a Body off "
+                    f"the axis, or drive it through its flange (use_flange=True)")
+
     def scene_sensors(self, tree):
         """SystemEnergy and SystemMomentum: sums over the bodies (and the force elements' stored energy)."""
         from ..components.multibody.sensors import PartialSceneSensor, SystemEnergy, SystemMomentum
@@ -445,6 +475,7 @@ def build_tree(components, graph: nx.Graph):
     tree = MultibodyTree({c.label: t.kin[t.node_of[c]] for c in t.frames}, t.coordinates, len(t.joint),
                          sum(isinstance(c, t.PartialBody) for c in components), t.world.path)
     t.dynamics(tree)
+    t.check_pivots()
     t.frame_values(tree)
     t.cut_forces(tree)
     t.scene_sensors(tree)
