@@ -68,6 +68,7 @@ class MultibodyTree:
     rates: dict = field(default_factory=dict)          # element hash of a frame symbol -> its time derivative
     observed: list = field(default_factory=list)       # (name, symbol, unit, expression) leaving the system
     intermediates: tuple = ((), ())                    # (symbols, definitions): state-only quantities, in order
+    zeros: list = field(default_factory=list)          # (name, unit) of accelerations/wrenches that are exactly 0
 
     def summary(self) -> str:
         return (f"multibody tree: {self.links} moving link(s), {self.bodies} body(ies), "
@@ -304,13 +305,7 @@ class _Tree:
                 for fr in self.loads_at[n]:
                     bk -= _transport_wrench(self.load(fr, n), d)
             M[link], bias[link] = Mk, bk
-        self.A, P = {None: ca.SX.zeros(6)}, {}
-        for link in moving:
-            e, S, forward, _ = self.joint[link]
-            side = "frame_b" if forward else "frame_a"
-            self.A[link] = _new(tree, e, [f"{e.path}.{side}.z_0[{i}]" for i in range(3)] +
-                                [f"{e.path}.{side}.a_0[{i}]" for i in range(3)], ["rad/s2"] * 3 + ["m/s2"] * 3)
-            P[link] = _new(tree, e, [f"{e.path}.bias_wrench[{i}]" for i in range(6)], ["N*m"] * 3 + ["N"] * 3)
+        self.A, P = {None: ca.densify(ca.SX.zeros(6))}, {}
         child_links = {link: [] for link in self.link_nodes}
         for link in moving:
             child_links[self.link_of[self.joint[link][3]]].append(link)
@@ -337,7 +332,8 @@ class _Tree:
                 scale = ca.trace(IA_k[:3, :3]) if rotates else ca.trace(IA_k[3:, 3:]) / 3
                 self._pivots.append((e, D[link], scale))
             Ia[link] = self.let(IA_k - ca.mtimes(U[link], U[link].T) / D[link], f"{e.path}.reduced_inertia")
-            _eq(tree, e, P[link] - p_k, "bias wrench of the subtree (articulated-body inward pass)")
+            P[link] = _defined(tree, e, [f"{e.path}.bias_wrench[{i}]" for i in range(6)], ["N*m"] * 3 + ["N"] * 3,
+                               p_k, "bias wrench of the subtree (articulated-body inward pass)")
         for link in moving:                                # outward: joint and link accelerations
             e, S, _, _ = self.joint[link]
             d, parent_link = self.offset(link)
@@ -346,7 +342,10 @@ class _Tree:
             qdd = der(e.speed())
             _eq(tree, e, D[link] * qdd - (e.axis_load() - ca.dot(S, ca.mtimes(IA[link], pre) + P[link])),
                 "joint acceleration (articulated-body outward pass)", regular=True)
-            _eq(tree, e, self.A[link] - (pre + S * qdd), "link acceleration (articulated-body outward pass)")
+            side = "frame_b" if self.joint[link][2] else "frame_a"
+            self.A[link] = _defined(tree, e, [f"{e.path}.{side}.z_0[{i}]" for i in range(3)] +
+                                    [f"{e.path}.{side}.a_0[{i}]" for i in range(3)], ["rad/s2"] * 3 + ["m/s2"] * 3,
+                                    pre + S * qdd, "link acceleration (articulated-body outward pass)")
 
     # -- what leaves the equation system ------------------------------------------------------------------
 
@@ -479,8 +478,24 @@ def build_tree(components, graph: nx.Graph):
     t.frame_values(tree)
     t.cut_forces(tree)
     t.scene_sensors(tree)
+    tree.observed.extend((name, None, unit, ca.SX(0)) for name, unit in tree.zeros)
     tree.intermediates = (tuple(t.let_symbols), tuple(t.let_values))
     return tree
+
+
+def _defined(tree, comp, names, units, rhs, doc):
+    """Unknowns equal to `rhs`, entry by entry; an entry that is exactly zero (a planar scene's
+    out-of-plane accelerations and moments) stays the number 0 instead of becoming an unknown."""
+    out = []
+    for name, unit, value in zip(names, units, ca.vertsplit(ca.densify(ca.SX(rhs)))):
+        if value.is_zero():
+            out.append(ca.SX(0))
+            tree.zeros.append((name, unit))
+            continue
+        sym = _new(tree, comp, [name], [unit])
+        _eq(tree, comp, sym - value, doc)
+        out.append(sym)
+    return ca.vertcat(*out)
 
 
 def _new(tree, comp, names, units):
