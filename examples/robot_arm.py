@@ -20,7 +20,7 @@ LINKS = [  # (axis, length of the link after the joint, mass of the link)
     ([0, 1, 0], 0.5, 3.0),
     ([0, 1, 0], 0.4, 1.5),
 ]
-J_MOTOR, RATIO, D_MOTOR = 2e-4, 50.0, 1e-3
+J_MOTOR, RATIO, D_MOTOR = 2e-4, 50.0, 2e-3
 
 t_end = 2.0
 plot = ["base.phi", "shoulder.phi", "elbow.phi", "tool.frame_a.r_0[2]"]
@@ -30,9 +30,11 @@ description = "Three-link robot arm driven by geared motors with torque profiles
 def build() -> mn.Model:
     m = mn.Model("robot_arm")
     world = m.add(mb.World(name="world", g=[0.0, 0.0, -9.81]))
-    profiles = [sig.Step(height=0.2, start_time=0.1),
-                sig.Sine(amplitude=0.6, f=0.5, offset=0.3),
-                sig.Ramp(height=-0.4, duration=1.0, start_time=0.5)]
+    # motor torques (N·m, ×RATIO at the joint): turn the base, hold the shoulder against gravity
+    # with a slow oscillation on top, and ramp the elbow's holding torque down
+    profiles = [sig.Step(height=0.02, start_time=0.1),
+                sig.Sine(amplitude=0.05, f=0.5, offset=-0.37),
+                sig.Ramp(height=0.05, duration=1.0, offset=-0.08, start_time=0.5)]
     starts = [0.0, -0.6, 1.2]
     previous = world.frame_b
     for k, (name, (axis, length, mass)) in enumerate(zip(["base", "shoulder", "elbow"], LINKS)):
