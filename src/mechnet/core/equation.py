@@ -38,12 +38,6 @@ def derivative_parent(symbol: ca.SX):
     return None if parent is None else _REGISTRY[parent][0]
 
 
-def existing_derivative(symbol: ca.SX):
-    """The derivative symbol of `symbol` if `der` was ever taken of it, else None."""
-    entry = _REGISTRY.get(symbol.element_hash())
-    return None if entry is None else entry[1]
-
-
 def _derivative_symbol(symbol: ca.SX) -> ca.SX:
     key = symbol.element_hash()
     entry = _REGISTRY.get(key)
