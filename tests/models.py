@@ -79,3 +79,68 @@ def bouncing_ball(h0=1.0, e=0.8) -> mn.Model:
     m = mn.Model("ball")
     m.add(BouncingBall(name="b", e=e, h_start=h0, v_start=0.0))
     return m
+
+
+def four_bar(a=0.2, b=0.6, c=0.5, d=0.6, theta2=0.3, drive=None, masses=(1.0, 2.0, 1.5), g=9.81,
+             closing="joint_c", name="four_bar") -> mn.Model:
+    """Planar four-bar in the x–y plane, all revolute axes along z (the three out-of-plane closure
+    constraints are redundant and dropped). Ground pivots A = (0, 0) and D = (d, 0); crank a from A
+    at the angle theta2, coupler b, rocker c from D; slender rods m·L²/12 about their middles.
+
+    `drive`: None (free), a rotational component connected to the crank joint's axis flange
+    (a Speed source, a Torque...), returned as `m.driver`. The assembly guesses put the
+    open branch (rocker above the ground line) in reach of Newton's method.
+    """
+    import numpy as np
+    from mechnet.components import multibody as mb
+
+    th3, th4 = four_bar_angles(a, b, c, d, theta2)
+    m = mn.Model(name)
+    world = m.add(mb.World(name="world", g=[0.0, -g, 0.0]))
+    ground = m.add(mb.FixedTranslation(name="ground", r=[d, 0, 0]))
+    crank_j = m.add(mb.Revolute(name="joint_a", n=[0, 0, 1], use_flange=drive is not None,
+                                **({"phi_start": theta2, "w_start": 0.0} if drive is None else
+                                   {"phi_guess": theta2})))
+    coupler_j = m.add(mb.Revolute(name="joint_b", n=[0, 0, 1], phi_guess=th3 - theta2))
+    rocker_j = m.add(mb.Revolute(name="joint_d", n=[0, 0, 1], phi_guess=th4))
+    closing_j = m.add(mb.Revolute(name="joint_c", n=[0, 0, 1], phi_guess=th4 - th3))
+    parts = {}
+    for key, L, mass in (("crank", a, masses[0]), ("coupler", b, masses[1]), ("rocker", c, masses[2])):
+        rod = m.add(mb.FixedTranslation(name=key, r=[L, 0, 0]))
+        body = m.add(mb.Body(name=f"{key}_body", m=mass, r_cm=[L / 2, 0, 0],
+                             I=np.diag([0.0, mass * L ** 2 / 12, mass * L ** 2 / 12])))
+        m.connect(rod.frame_a, body.frame_a)
+        parts[key] = rod
+    m.connect(world.frame_b, ground.frame_a)
+    m.connect(world.frame_b, crank_j.frame_a)
+    m.connect(crank_j.frame_b, parts["crank"].frame_a)
+    m.connect(parts["crank"].frame_b, coupler_j.frame_a)
+    m.connect(coupler_j.frame_b, parts["coupler"].frame_a)
+    m.connect(ground.frame_b, rocker_j.frame_a)
+    m.connect(rocker_j.frame_b, parts["rocker"].frame_a)
+    m.connect(parts["coupler"].frame_b, closing_j.frame_a)
+    m.connect(closing_j.frame_b, parts["rocker"].frame_b)
+    if drive is not None:
+        from mechnet.components import rotational as rot
+        fixed = m.add(rot.Fixed(name="fixed"))
+        m.add(drive)
+        m.connect(crank_j.support, fixed.flange)
+        m.connect(crank_j.axis, drive.flange)
+    m.driver = drive
+    return m
+
+
+def four_bar_angles(a, b, c, d, theta2, branch=+1):
+    """Coupler and rocker angles (from +x) of the four-bar by Freudenstein's equation:
+    K1 cos θ4 − K2 cos θ2 + K3 = cos(θ2 − θ4), K1 = d/a, K2 = d/c, K3 = (a² − b² + c² + d²)/(2ac),
+    solved with the half-angle substitution; branch +1 is the open assembly (rocker above the ground)."""
+    import numpy as np
+
+    K1, K2, K3 = d / a, d / c, (a ** 2 - b ** 2 + c ** 2 + d ** 2) / (2 * a * c)
+    A = np.cos(theta2) - K1 - K2 * np.cos(theta2) + K3
+    B = -2 * np.sin(theta2)
+    C = K1 - (K2 + 1) * np.cos(theta2) + K3
+    th4 = np.angle(np.exp(2j * np.arctan2(-B - branch * np.sqrt(B ** 2 - 4 * A * C), 2 * A)))
+    # coupler from B = a(cos θ2, sin θ2) to C = (d, 0) + c(cos θ4, sin θ4)
+    th3 = np.arctan2(c * np.sin(th4) - a * np.sin(theta2), d + c * np.cos(th4) - a * np.cos(theta2))
+    return th3, th4

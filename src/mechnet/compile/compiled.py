@@ -101,6 +101,7 @@ class CompiledModel:
             f"  effects: {effects or '-'}",
         ] + ([f"  {flat.multibody.summary()}; {len(flat.observed_only)} frame quantities observed only"]
              if flat.multibody is not None else []) + [
+            f"  {loop.summary()}" for loop in (flat.multibody.loops if flat.multibody is not None else [])] + [
             f"  cost: {d.ode.n_instructions()} instructions in ode, {d.alg.n_instructions()} in alg",
             "  compile time: " + ", ".join(f"{k} {v * 1e3:.1f} ms" for k, v in self.timings.items()),
         ]

@@ -32,7 +32,7 @@ that a later stage would have to rewrite.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import casadi as ca
 import networkx as nx
@@ -41,6 +41,7 @@ import numpy as np
 from ..core.equation import der
 from ..core.errors import StructureError
 from .artifacts import FlatEquation, FlatVariable
+from .loops import Loop, closure, closure_equations, direction, loop_edges, reduce_redundancy
 
 
 @dataclass
@@ -69,10 +70,12 @@ class MultibodyTree:
     observed: list = field(default_factory=list)       # (name, symbol, unit, expression) leaving the system
     intermediates: tuple = ((), ())                    # (symbols, definitions): state-only quantities, in order
     zeros: list = field(default_factory=list)          # (name, unit) of accelerations/wrenches that are exactly 0
+    loops: list = field(default_factory=list)          # Loop: one per cut edge (kinematic loops)
 
     def summary(self) -> str:
         return (f"multibody tree: {self.links} moving link(s), {self.bodies} body(ies), "
-                f"{len(self.coordinates)} joint coordinate(s), rooted at {self.world}")
+                f"{len(self.coordinates)} joint coordinate(s), rooted at {self.world}"
+                + (f", {len(self.loops)} kinematic loop(s)" if self.loops else ""))
 
 
 # ---- small spatial algebra (world axes; wrench = (moment, force), motion = (angular, linear)) ----------
@@ -156,26 +159,30 @@ class _Tree:
         return worlds[0]
 
     def span(self):
-        """Breadth-first spanning tree from the World's node; an edge between two visited nodes closes a loop."""
+        """Spanning tree from the World's node; the edges it leaves out close kinematic loops.
+
+        Rigid edges are taken into the tree first, then joints driven through a flange, then plain
+        joints: a loop is cut at a plain joint where it has one (its drive is then simply zero).
+        Within each class, edges are taken in name order, so the choice is reproducible."""
         g = nx.MultiGraph()
         g.add_nodes_from(range(len(self.members)))
         for e in self.components:
             if isinstance(e, self.PartialTreeEdge):
-                g.add_edge(self.node_of[e.frame_a], self.node_of[e.frame_b], key=e.path, comp=e)
+                weight = 0 if not e.dof else (1 if getattr(e, "use_flange", False) else 2)
+                g.add_edge(self.node_of[e.frame_a], self.node_of[e.frame_b], key=e.path, comp=e, weight=weight)
+        kept = {key for _, _, key in nx.minimum_spanning_edges(g, algorithm="kruskal", keys=True, data=False)}
         root = self.node_of[self.world.frame_b]
         self.parent = {root: None}          # node -> (edge, forward: parent is frame_a's side, parent node)
         self.order = [root]
-        used = set()
         for u in self.order:
             for _, v, key, data in sorted(g.edges(u, keys=True, data=True), key=lambda item: item[2]):
-                if key in used:
-                    continue
-                used.add(key)
-                if v in self.parent:
-                    _loop_error(self.parent, u, v, key)
-                e = data["comp"]
-                self.parent[v] = (e, self.node_of[e.frame_a] == u, u)
-                self.order.append(v)
+                if key in kept and v not in self.parent:
+                    e = data["comp"]
+                    self.parent[v] = (e, self.node_of[e.frame_a] == u, u)
+                    self.order.append(v)
+        self.cuts = sorted((data["comp"] for _, _, key, data in g.edges(keys=True, data=True) if key not in kept),
+                           key=lambda e: e.path)
+        self.cut_ids = {id(e) for e in self.cuts}
         unreached = [k for k in range(len(self.members)) if k not in self.parent]
         if unreached:
             owners = sorted({c.owner for k in unreached for c in self.members[k]},
@@ -236,8 +243,8 @@ class _Tree:
         for c in self.frames:
             if isinstance(c.owner, self.PartialBody):
                 self.bodies_at[self.node_of[c]].append(c.owner)
-            elif not isinstance(c.owner, (self.PartialTreeEdge, self.World)):
-                self.loads_at[self.node_of[c]].append(c)
+            elif id(c.owner) in self.cut_ids or not isinstance(c.owner, (self.PartialTreeEdge, self.World)):
+                self.loads_at[self.node_of[c]].append(c)        # force elements, sensors, cut edges
 
     # -- loads ------------------------------------------------------------------------------------------
 
@@ -320,10 +327,13 @@ class _Tree:
                 IA_k = IA_k + _transport_inertia(Ia[j], dj)
                 p_k = p_k + _transport_wrench(ca.mtimes(Ia[j], self.velocity_terms(j)) + P[j] + U[j] * u_j / D[j], dj)
             if ca.SX(ca.dot(S, ca.mtimes(IA_k, S))).is_zero() and not getattr(e, "use_flange", False):
+                in_loop = (" (it is part of a kinematic loop, cut at " + ", ".join(c.path for c in self.cuts)
+                           + ": every link inside a loop needs mass, or inertia about its joint axes)"
+                           if self.cuts else "")
                 raise StructureError(
                     f"joint {e.path} ({type(e).__name__}) moves no mass: nothing beyond it has mass (or inertia "
-                    f"about its axis), so its acceleration is undetermined; attach a Body beyond the joint, or "
-                    f"drive it through its flange (use_flange=True)")
+                    f"about its axis), so its acceleration is undetermined{in_loop}; attach a Body beyond the "
+                    f"joint, or drive it through its flange (use_flange=True)")
             IA[link] = IA_k = self.let(IA_k, f"{e.path}.articulated_inertia")
             U[link] = ca.mtimes(IA_k, S)
             D[link] = ca.dot(S, U[link])
@@ -426,6 +436,30 @@ class _Tree:
                     f"(or inertia) along its axis, so its acceleration is undetermined; attach a Body off "
                     f"the axis, or drive it through its flange (use_flange=True)")
 
+    def close_loops(self, tree):
+        """Each cut edge: closure residuals (redundant planar directions dropped), balance, drive."""
+        if not self.cuts:
+            return
+        parts = [closure(e, self.kin[self.node_of[e.frame_a]], self.kin[self.node_of[e.frame_b]])
+                 for e in self.cuts]
+        # residuals are written in the joint coordinates themselves (an expression along the loop's
+        # tree path): index reduction must see which coordinates they constrain
+        _, expanded = ca.substitute_inplace(self.let_symbols, self.let_values, [p[0] for p in parts], False)
+        parts = [(r,) + p[1:] for r, p in zip(expanded, parts)]
+        loops = []
+        for k, e in enumerate(self.cuts):
+            around = loop_edges(self.parent, self.node_of[e.frame_a], self.node_of[e.frame_b])
+            loops.append(Loop(k + 1, e.path, tuple(j.path for j in around if j.dof) + (e.path,), 0, ()))
+        coordinates = [q for _, q, _ in self.coordinates] + [e.coordinate() for e in self.cuts if e.dof]
+        tunables = [(sym, value) for c in self.components for sym, value in c.tunable.values()]
+        bases = reduce_redundancy(self.cuts, [r for r, _, _, _ in parts], coordinates,
+                                  (self.let_symbols, self.let_values), tunables, lambda k: loops[k].describe())
+        for k, (e, (res, wrench, balance, drive), (K, N)) in enumerate(zip(self.cuts, parts, bases)):
+            loop = replace(loops[k], kept=K.shape[1],
+                           dropped=tuple(direction(N[:, j]) for j in range(N.shape[1])))
+            tree.loops.append(loop)
+            tree.equations.extend(closure_equations(e, loop, res, wrench, balance, drive, K, N))
+
     def scene_sensors(self, tree):
         """SystemEnergy and SystemMomentum: sums over the bodies (and the force elements' stored energy)."""
         from ..components.multibody.sensors import PartialSceneSensor, SystemEnergy, SystemMomentum
@@ -477,6 +511,7 @@ def build_tree(components, graph: nx.Graph):
     t.check_pivots()
     t.frame_values(tree)
     t.cut_forces(tree)
+    t.close_loops(tree)
     t.scene_sensors(tree)
     tree.observed.extend((name, None, unit, ca.SX(0)) for name, unit in tree.zeros)
     tree.intermediates = (tuple(t.let_symbols), tuple(t.let_values))
@@ -514,21 +549,3 @@ def _eq(tree, comp, residual, doc, regular=False):
     for i in range(residual.numel()):
         tree.equations.append(FlatEquation(residual[i], comp.path, label + (f"[{i}]" if residual.numel() > 1 else ""),
                                            doc, regular=regular))
-
-
-def _loop_error(parent, u, v, key):
-    """Name the joints of the loop that the edge `key` (u–v) closes: the two tree paths to their meeting node."""
-    def path(n):
-        out = []
-        while parent[n] is not None:
-            e, _, p = parent[n]
-            out.append((n, e.path))
-            n = p
-        return out
-
-    pu, pv = path(u), path(v)
-    common = {n for n, _ in pu} & {n for n, _ in pv}
-    joints = [j for n, j in pu if n not in common] + [j for n, j in pv if n not in common] + [key]
-    raise StructureError(f"kinematic loop found through joints {', '.join(joints)} (closed by {key}); "
-                         f"kinematic loops are not supported yet: open the loop (remove one joint) "
-                         f"or replace a joint by a force element")
