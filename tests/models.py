@@ -144,3 +144,63 @@ def four_bar_angles(a, b, c, d, theta2, branch=+1):
     # coupler from B = a(cos θ2, sin θ2) to C = (d, 0) + c(cos θ4, sin θ4)
     th3 = np.arctan2(c * np.sin(th4) - a * np.sin(theta2), d + c * np.cos(th4) - a * np.cos(theta2))
     return th3, th4
+
+
+def slider_crank(r=0.1, l=0.35, theta0=0.4, crank_drive=None, piston_drive=None, masses=(1.0, 0.8, 0.5),
+                 g=9.81, name="slider_crank") -> mn.Model:
+    """Planar slider-crank in the x–y plane: crank r about the origin (joint_a, axis z), connecting rod l
+    (joint_b at the crank pin), wrist pin joint_c on the piston, which slides along x on `slider`
+    (a Prismatic from the world). Closed-form piston position x = r cos θ + √(l² − r² sin² θ).
+
+    `crank_drive` is connected to the crank joint's axis flange (a Speed source, a torque...),
+    `piston_drive` to the slider's axis flange (a translational force); both become `use_flange=True`.
+    """
+    import numpy as np
+    from mechnet.components import multibody as mb
+    from mechnet.components import rotational as rot
+    from mechnet.components import translational as tr
+
+    beta = -np.arcsin(r * np.sin(theta0) / l)              # rod angle from +x
+    x0 = r * np.cos(theta0) + l * np.cos(beta)
+    m = mn.Model(name)
+    world = m.add(mb.World(name="world", g=[0.0, -g, 0.0]))
+    crank_j = m.add(mb.Revolute(name="joint_a", n=[0, 0, 1], use_flange=crank_drive is not None,
+                                **({"phi_start": theta0, "w_start": 0.0} if crank_drive is None
+                                   else {"phi_guess": theta0})))
+    rod_j = m.add(mb.Revolute(name="joint_b", n=[0, 0, 1], phi_guess=beta - theta0))
+    wrist = m.add(mb.Revolute(name="joint_c", n=[0, 0, 1], phi_guess=-beta))
+    slider = m.add(mb.Prismatic(name="slider", n=[1, 0, 0], s_guess=x0, use_flange=piston_drive is not None))
+    crank = m.add(mb.FixedTranslation(name="crank", r=[r, 0, 0]))
+    rod = m.add(mb.FixedTranslation(name="rod", r=[l, 0, 0]))
+    for part, L, mass in ((crank, r, masses[0]), (rod, l, masses[1])):
+        body = m.add(mb.Body(name=f"{part.name}_body", m=mass, r_cm=[L / 2, 0, 0],
+                             I=np.diag([0.0, mass * L ** 2 / 12, mass * L ** 2 / 12])))
+        m.connect(part.frame_a, body.frame_a)
+    piston = m.add(mb.Body(name="piston", m=masses[2], I=np.diag([1e-4, 1e-4, 1e-4])))
+    m.connect(world.frame_b, crank_j.frame_a)
+    m.connect(crank_j.frame_b, crank.frame_a)
+    m.connect(crank.frame_b, rod_j.frame_a)
+    m.connect(rod_j.frame_b, rod.frame_a)
+    m.connect(rod.frame_b, wrist.frame_a)
+    m.connect(world.frame_b, slider.frame_a)
+    m.connect(slider.frame_b, piston.frame_a)
+    m.connect(slider.frame_b, wrist.frame_b)
+    if crank_drive is not None:
+        fixed = m.add(rot.Fixed(name="fixed"))
+        m.add(crank_drive)
+        m.connect(crank_j.support, fixed.flange)
+        m.connect(crank_j.axis, crank_drive.flange if hasattr(crank_drive, "flange") else crank_drive.flange_b)
+        if not hasattr(crank_drive, "flange"):
+            m.connect(crank_drive.flange_a, fixed.flange)
+    if piston_drive is not None:
+        ground = m.add(tr.Fixed(name="ground"))
+        m.add(piston_drive)
+        m.connect(slider.support, ground.flange)
+        m.connect(slider.axis, piston_drive.flange)
+    return m
+
+
+def slider_crank_x(r, l, theta):
+    """Piston position of the slider-crank (wrist pin from the crank centre)."""
+    import numpy as np
+    return r * np.cos(theta) + np.sqrt(l ** 2 - (r * np.sin(theta)) ** 2)

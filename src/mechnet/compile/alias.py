@@ -238,9 +238,26 @@ def simplify(flat: FlatSystem, options: SimplifyOptions = SimplifyOptions()) -> 
     reduced = FlatSystem(flat.name, variables, equations, flat.parameters, der_of, flat.time,
                          flat.effects, stage="simplify", time_events=flat.time_events,
                          folded_parameters=flat.folded_parameters, zero_crossings=zero_crossings,
-                         intermediates=flat.intermediates, multibody=flat.multibody,
+                         intermediates=_map_intermediates(flat, classes, symbols), multibody=flat.multibody,
                          observed_only=flat.observed_only)
     return reduced, AliasMap(expressions, n_alias, n_const, removed + (len(flat.equations) - len(equations) - removed))
+
+
+def _map_intermediates(flat, classes, symbols):
+    """The tree's intermediates in terms of the surviving variables: a joint speed that a Speed source
+    fixes to a constant, or a coordinate aliased to a source's angle, is replaced there too."""
+    syms, defs = flat.intermediates
+    if not syms or flat.multibody is None:
+        return flat.intermediates
+    index = {v.symbol.element_hash(): i for i, v in enumerate(flat.variables)}
+    gone = [index[s.element_hash()] for _, q, qd in flat.multibody.coordinates for s in (q, qd)
+            if s.element_hash() in index]
+    gone = [i for i in gone if classes.find(i)[0] != i or i in classes.const]
+    if not gone:
+        return flat.intermediates
+    new = ca.substitute(ca.vertcat(*defs), ca.vertcat(*[symbols[i] for i in gone]),
+                        ca.vertcat(*[classes.expression(i, symbols) for i in gone]))
+    return tuple(syms), tuple(new[k] for k in range(new.numel()))
 
 
 def _map_zero_crossings(flat, classes, symbols, new_index):

@@ -67,6 +67,8 @@ class _Graph:
     def __init__(self, flat: FlatSystem):
         self.kind = [v.kind for v in flat.variables]
         self.der = {i: j for i, (j, _) in flat.der_of.items() if j is not None}
+        # states whose rate is a constant (a crank turned by a Speed source): known, like any state
+        self.known_rate = {i for i, (j, _) in flat.der_of.items() if j is None}
         self.antider = {j: i for i, j in self.der.items()}
         index = {v.symbol.element_hash(): i for i, v in enumerate(flat.variables)}
         self.inc = [sorted({index[s.element_hash()] for s in ca.symvar(eq.residual)
@@ -76,7 +78,7 @@ class _Graph:
         self.assign = {}          # variable -> equation matched to it
 
     def visible(self, v) -> bool:
-        return self.kind[v] != "input" and v not in self.der
+        return self.kind[v] != "input" and v not in self.der and v not in self.known_rate
 
     def new_variable(self, of: int) -> int:
         j = len(self.kind)
@@ -87,7 +89,7 @@ class _Graph:
 
     def differentiate(self, e: int) -> int:
         for v in self.inc[e]:
-            if self.kind[v] != "input" and v not in self.der:
+            if self.kind[v] != "input" and v not in self.der and v not in self.known_rate:
                 self.new_variable(v)
         k = len(self.inc)
         self.inc.append(sorted(set(self.inc[e]) | {self.der[v] for v in self.inc[e] if v in self.der}))

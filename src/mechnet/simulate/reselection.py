@@ -50,7 +50,15 @@ class Reselection:
                 return ratios[: m], None
             if ratios[m] >= monitor.HYSTERESIS or m == 0:
                 continue
+            # a loop's dependent block rarely reaches quality 1/2 even at its best: after a full check
+            # that kept the choice, check again only once the running quality has fallen by 10%, or
+            # every 16 points (the best choice may have improved meanwhile)
+            last = getattr(self, "_last_full_check", None)
+            if last is not None and ratios[m] >= 0.9 * last[0] and last[1] < 16:
+                self._last_full_check = (last[0], last[1] + 1)
+                continue
             quality, switch = monitor.better(Y[m], probe=True, params=self.p)
+            self._last_full_check = (ratios[m], 0)
             if switch:
                 if ratios[m - 1] - ratios[m] > 0.25:
                     self.refine_at = m - 1    # monitored too coarsely: look closer before switching
@@ -76,6 +84,7 @@ class Reselection:
         self.x = x_new
         self.z = solve_algebraic(new_dae, t, x_new, z_guess, u, self.p, self.d)
         self.monitor.current = dummies
+        self._last_full_check = None
         self.events.append(Event(float(t), "reselection", cause))
         if self.T and self.T[-1] == t:
             self.X[-1], self.Z[-1], self.D[-1] = self.x.copy(), self.z.copy(), new_dae
