@@ -81,6 +81,12 @@ def bouncing_ball(h0=1.0, e=0.8) -> mn.Model:
     return m
 
 
+def _prescribes_motion(drive) -> bool:
+    """A Speed or Position source fixes the crank's motion itself (no start values on the joint then)."""
+    from mechnet.components import rotational as rot
+    return isinstance(drive, (rot.Speed, rot.Position))
+
+
 def four_bar(a=0.2, b=0.6, c=0.5, d=0.6, theta2=0.3, drive=None, masses=(1.0, 2.0, 1.5), g=9.81,
              closing="joint_c", name="four_bar") -> mn.Model:
     """Planar four-bar in the x–y plane, all revolute axes along z (the three out-of-plane closure
@@ -99,8 +105,8 @@ def four_bar(a=0.2, b=0.6, c=0.5, d=0.6, theta2=0.3, drive=None, masses=(1.0, 2.
     world = m.add(mb.World(name="world", g=[0.0, -g, 0.0]))
     ground = m.add(mb.FixedTranslation(name="ground", r=[d, 0, 0]))
     crank_j = m.add(mb.Revolute(name="joint_a", n=[0, 0, 1], use_flange=drive is not None,
-                                **({"phi_start": theta2, "w_start": 0.0} if drive is None else
-                                   {"phi_guess": theta2})))
+                                **({"phi_guess": theta2} if _prescribes_motion(drive) else
+                                   {"phi_start": theta2, "w_start": 0.0})))
     coupler_j = m.add(mb.Revolute(name="joint_b", n=[0, 0, 1], phi_guess=th3 - theta2))
     rocker_j = m.add(mb.Revolute(name="joint_d", n=[0, 0, 1], phi_guess=th4))
     closing_j = m.add(mb.Revolute(name="joint_c", n=[0, 0, 1], phi_guess=th4 - th3))
@@ -165,8 +171,8 @@ def slider_crank(r=0.1, l=0.35, theta0=0.4, crank_drive=None, piston_drive=None,
     m = mn.Model(name)
     world = m.add(mb.World(name="world", g=[0.0, -g, 0.0]))
     crank_j = m.add(mb.Revolute(name="joint_a", n=[0, 0, 1], use_flange=crank_drive is not None,
-                                **({"phi_start": theta0, "w_start": 0.0} if crank_drive is None
-                                   else {"phi_guess": theta0})))
+                                **({"phi_guess": theta0} if _prescribes_motion(crank_drive) else
+                                   {"phi_start": theta0, "w_start": 0.0})))
     rod_j = m.add(mb.Revolute(name="joint_b", n=[0, 0, 1], phi_guess=beta - theta0))
     wrist = m.add(mb.Revolute(name="joint_c", n=[0, 0, 1], phi_guess=-beta))
     slider = m.add(mb.Prismatic(name="slider", n=[1, 0, 0], s_guess=x0, use_flange=piston_drive is not None))
