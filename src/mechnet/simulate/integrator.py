@@ -28,6 +28,7 @@ import numpy as np
 from ..core.errors import InitializationError, IntegrationError, MechnetError, ParameterError, UnknownNameError
 from ..core.declarations import finite_number
 from .events import Event, breakpoints, chunk_bounds, output_grid
+from .change_points import ChangePoints
 from .reselection import Reselection, SelectionMonitor
 from .state_events import StateEvents
 from .initialize import initialize, solve_algebraic
@@ -237,7 +238,7 @@ def _resolve_params(dae, given: dict | None) -> np.ndarray:
     return values
 
 
-class _Run(StateEvents, Reselection):
+class _Run(StateEvents, Reselection, ChangePoints):
     """The segment loop: integrate between boundaries, restart at events, stop at a failure."""
 
     def __init__(self, cm, dae, plugin, extra, rtol, atol, max_steps, plan, p, d, init):
@@ -290,9 +291,14 @@ class _Run(StateEvents, Reselection):
                 points = np.concatenate([[t_cur], grid[a + 1: b + 1]])
                 n_before = len(self.T)
                 if not self._segment(points):
-                    if bar is not None:
-                        bar.close()
-                    return
+                    t_next = self._pass_change_point(grid, limit=grid[b])
+                    if t_next is None:
+                        if bar is not None:
+                            bar.close()
+                        return
+                    t_cur = t_next
+                    a = int(np.searchsorted(grid, t_cur, side="right")) - 1
+                    continue
                 event = self._state_event(points, n_before)
                 if event is None:
                     break
@@ -396,7 +402,12 @@ class _Run(StateEvents, Reselection):
                 continue
             if not ok:
                 self._recover(np.concatenate([[t_cur], grid[k + 1: k_end + 1]]), message)
-                return
+                t_next = self._pass_change_point(grid)
+                if t_next is None:
+                    return
+                t_cur, per_piece, fraction = t_next, 1, 1.0
+                k = int(np.searchsorted(grid, t_cur, side="right")) - 1
+                continue
             self.refine_at = None
             ratios, switch_at = self._ratios(pts, xs, zs)
             limit = switch_at if self.refine_at is None else self.refine_at
@@ -491,6 +502,14 @@ class _Run(StateEvents, Reselection):
         """
         solver = _solver_message(message)
         n = points.size - 1
+        if self.zn.size and self.T:
+            # restart from algebraics consistent to Newton's precision, not just to the integrator's:
+            # IDAS's own initial-condition search can fail on a point that is consistent only to rtol
+            try:
+                self.z = solve_algebraic(self.dae, self.T[-1], self.x, self.z, self._u_at(self.T[-1]),
+                                         self.p, self.d)
+            except MechnetError:
+                pass
         a, chunk = 0, max(1, n // 2)
         while a < n:
             b = min(a + chunk, n)
