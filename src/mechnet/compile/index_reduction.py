@@ -292,6 +292,16 @@ class SelectionFactory:
                 q *= np.where(norms > 0, det / norms, 0.0)
         return q
 
+    def watched_indices(self) -> list:
+        """Variables the selection Jacobians can depend on (those in the differentiated constraints):
+        the monitor evaluates only these along a run."""
+        if not hasattr(self, "_watched"):
+            rows = [e for e in range(len(self.equations)) if e in self.graph.parent or e in self.graph.diff]
+            exprs = self.flat.expand([self.equations[e].residual for e in rows])
+            used = {s.element_hash() for r in exprs for s in ca.symvar(ca.SX(r))}
+            self._watched = [k for k, sym in enumerate(self.symbols) if sym.element_hash() in used]
+        return self._watched
+
     def can_degrade(self) -> bool:
         """False when every selection Jacobian is constant (a gear): the choice never needs revisiting."""
         graph = self.graph

@@ -11,6 +11,7 @@ event.
 """
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 
 from ..core.errors import MechnetError
@@ -28,18 +29,13 @@ class Reselection:
             return np.ones(n), None
         U = np.column_stack([self._u_at(t) for t in pts]) if self.plan.varying else \
             np.tile(self.plan.constant.reshape(-1, 1), n)
-        Y = np.asarray(self.dae.observed.map(n)(pts.reshape(1, -1), xs.T, zs.T, U,
-                                                np.tile(self.p.reshape(-1, 1), n),
-                                                np.tile(self.d.reshape(-1, 1), n))).T
         # the running choice's quality at every point in one batch; the full comparison with the
         # best choice (a pivoted QR per point) only where a switch is possible (quality below 1/2)
         monitor = self.monitor
-        position = {name: k for k, name in enumerate(self.dae.observed_names)}
-        cols = [position.get(name) for name in monitor.names]
-        values = np.zeros((n, len(cols)))
-        for j, c in enumerate(cols):
-            if c is not None:
-                values[:, j] = Y[:, c]
+        values = np.zeros((n, len(monitor.names)))
+        values[:, monitor.factory.watched_indices()] = np.asarray(
+            monitor.watched(self.dae, n)(pts.reshape(1, -1), xs.T, zs.T, U, np.tile(self.p.reshape(-1, 1), n),
+                                         np.tile(self.d.reshape(-1, 1), n))).T
         levels = monitor.factory.levels_for(monitor.current)
         signed = monitor.factory.quality_batch(levels, values, self.p)
         ratios, signs = np.abs(signed), np.sign(signed)
@@ -57,7 +53,7 @@ class Reselection:
             if last is not None and ratios[m] >= 0.9 * last[0] and last[1] < 16:
                 self._last_full_check = (last[0], last[1] + 1)
                 continue
-            quality, switch = monitor.better(Y[m], probe=True, params=self.p)
+            quality, switch = monitor.better_at(values[m], probe=True, params=self.p)
             self._last_full_check = (ratios[m], 0)
             if switch:
                 if ratios[m - 1] - ratios[m] > 0.25:
@@ -115,13 +111,31 @@ class SelectionMonitor:
             current = next((k for k, v in cm._selections.items() if v is dae), current)
         return cls(cm, factory, current)
 
+    def watched(self, dae, n):
+        """The variables the selection depends on (`factory.watched_indices()`), at n points in one call.
+        Only these are evaluated, not every observed name; cached per compiled selection and n."""
+        cache = self.__dict__.setdefault("_watched", {})
+        key = (id(dae), n)
+        if key not in cache:
+            args = [ca.SX.sym(k, m) for k, m in (("t", 1), ("x", dae.x.numel()), ("z", dae.z.numel()),
+                                                  ("u", dae.u.numel()), ("p", dae.p.numel()), ("d", dae.d.numel()))]
+            y = dae.observed(*args)
+            position = {name: k for k, name in enumerate(dae.observed_names)}
+            out = ca.vertcat(*[y[position[self.names[k]]] if self.names[k] in position else ca.SX(0)
+                               for k in self.factory.watched_indices()])
+            single = cache.setdefault((id(dae), "single"), ca.Function("watched", args, [out]))
+            cache[key] = single.map(n)
+        return cache[key]
+
     def better(self, observed_values, probe=False, params=None):
+        """`better_at` from a vector of every observed value (the compiled model's `observed`)."""
+        named = dict(zip(self.cm.dae.observed_names, observed_values))
+        return self.better_at(np.array([named.get(n, 0.0) for n in self.names]), probe, params)
+
+    def better_at(self, values, probe=False, params=None):
         """(quality, switch): the running selection's quality in [0, 1] (1: ideal, 0: singular) and
         None, or — when another selection is better by the hysteresis factor — (dummies, compiled
-        selection, cause); when probing, just True."""
-        dae = self.cm.dae
-        named = dict(zip(dae.observed_names, observed_values))
-        values = np.array([named.get(n, 0.0) for n in self.names])
+        selection, cause); when probing, just True. `values` follow `names`."""
         try:
             best, levels = self.factory.choose(values, params)
         except MechnetError:
