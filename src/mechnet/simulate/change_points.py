@@ -37,18 +37,22 @@ class ChangePoints:
         dae = self.dae
         if not dae.z.numel():
             return None
-        if not hasattr(self, "_alg_jacobians"):
-            self._alg_jacobians = {}
-        if id(dae) not in self._alg_jacobians:
-            args = [ca.SX.sym(k, n) for k, n in (("t", 1), ("x", dae.x.numel()), ("z", dae.z.numel()),
-                                                  ("u", dae.u.numel()), ("p", dae.p.numel()), ("d", dae.d.numel()))]
-            self._alg_jacobians[id(dae)] = ca.Function("alg_z", args, [ca.jacobian(dae.alg(*args), args[2])])
         t = self.T[-1]
-        J = np.asarray(self._alg_jacobians[id(dae)](t, self.X[-1], self.Z[-1], self._u_at(t), self.p, self.d),
+        J = np.asarray(self._alg_jacobian_function()(t, self.X[-1], self.Z[-1], self._u_at(t), self.p, self.d),
                        dtype=float)
         J = J / np.maximum(np.linalg.norm(J, axis=1, keepdims=True), 1e-300)
         s = np.linalg.svd(J, compute_uv=False)
         return float(s[-1] / s[0]) if s.size and s[0] > 0 else 0.0
+
+    def _alg_jacobian_function(self):
+        """∂alg/∂z of the running compiled selection (cached per selection)."""
+        dae = self.dae
+        cache = self.__dict__.setdefault("_alg_jacobians", {})
+        if id(dae) not in cache:
+            args = [ca.SX.sym(k, n) for k, n in (("t", 1), ("x", dae.x.numel()), ("z", dae.z.numel()),
+                                                  ("u", dae.u.numel()), ("p", dae.p.numel()), ("d", dae.d.numel()))]
+            cache[id(dae)] = ca.Function("alg_z", args, [ca.jacobian(dae.alg(*args), args[2])])
+        return cache[id(dae)]
 
     def _pass_change_point(self, grid, limit=None):
         """After a failure: step over a change point and return the new time, or None (a real failure).
@@ -59,21 +63,50 @@ class ChangePoints:
         quality = self._algebraic_conditioning()
         if quality is None or quality >= RANK_LOSS:
             return None
-        t0, t1 = self.T[-2], self.T[-1]
+        if self.T[-1] - self.T[-2] <= 0:
+            return None
+        dt = self.failure.t - self.T[-1] if self.failure.t > self.T[-1] else 0.0
+        t_b = self._step_over(grid, limit, self.T[-2], self.X[-2], self.Z[-2], self.T[-1], self.X[-1],
+                              self.Z[-1], dt, quality)
+        if t_b is not None:
+            self.failure = None
+            self.stats.pop("failed_at", None)
+        return t_b
+
+    def _first_fold(self, pts, xs, zs):
+        """(index, conditioning) of the first monitor point after the start where the algebraic block's
+        conditioning falls below RANK_LOSS: the simulator steps over the change point before the
+        integrator fails there."""
+        if self.cm.selection_factory is None or not self.dae.z.numel() or pts.size < 2:
+            return None
+        n, nz = pts.size, self.dae.z.numel()
+        f = self._alg_jacobian_function().map(n)
+        U = np.column_stack([self._u_at(t) for t in pts])
+        J = np.asarray(f(pts.reshape(1, -1), xs.T, zs.T, U, np.tile(self.p.reshape(-1, 1), n),
+                         np.tile(self.d.reshape(-1, 1), n)), dtype=float)
+        J = J.reshape(nz, n, nz).transpose(1, 0, 2)
+        J = J / np.maximum(np.linalg.norm(J, axis=2, keepdims=True), 1e-300)
+        s = np.linalg.svd(J, compute_uv=False)
+        cond = s[:, -1] / np.maximum(s[:, 0], 1e-300)
+        # approaching the point (the conditioning still falling), not leaving it after a step over
+        low = np.nonzero((cond[1:] < RANK_LOSS) & (cond[1:] < cond[:-1]))[0]
+        return (int(low[0]) + 1, float(cond[low[0] + 1])) if low.size else None
+
+    def _step_over(self, grid, limit, t0, x0, z0, t1, x1, z1, dt_min, quality):
+        """Move from (t1, x1, z1) past the change point along the secant from (t0, x0, z0); the new time
+        or None. Repeated steps near one point grow (the point was not passed yet)."""
         h = t1 - t0
         if h <= 0:
             return None
-        x0, x1, z0, z1 = self.X[-2], self.X[-1], self.Z[-2], self.Z[-1]
         watched = self._branch_variables()
         xdot, zdot = (x1 - x0) / h, (z1 - z0) / h
-        # failing again soon after a step over this point: step further (the point was not passed)
         last = getattr(self, "_last_change_point", None)
         growth = 1.0
         if last is not None and t1 <= last[0] + 4 * last[1]:
             growth = last[2] * 4
             if growth > MAX_GROWTH:
                 return None
-        dt = growth * max(h, self.failure.t - t1 if self.failure.t > t1 else 0.0)
+        dt = growth * max(h, dt_min)
         spacing = float(np.max(np.diff(grid))) if grid.size > 1 else h
         longest = max(MAX_GROWTH * h, MAX_OUTPUT_INTERVALS * spacing)
         while dt <= longest and t1 + dt < limit:
@@ -90,10 +123,8 @@ class ChangePoints:
                 self._bridge(grid, t1, x1, z1, t_b, x_b, z_b)
                 self._last_change_point = (t_b, dt, dt / max(h, 1e-300))
                 self.events.append(Event(float(t_b), "change point",
-                                         f"constraint Jacobian lost rank (algebraic block conditioning {quality:.2g}); "
-                                         f"passed from t = {t1:.9g} s with the velocity"))
-                self.failure = None
-                self.stats.pop("failed_at", None)
+                                         f"constraint Jacobian lost rank (algebraic block conditioning "
+                                         f"{quality:.2g}); passed from t = {t1:.9g} s with the velocity"))
                 return t_b
             dt *= 2
         return None

@@ -113,6 +113,18 @@ class _Integrators:
         return ca.integrator("F", self.plugin, spec, 0.0 if t0_real is None else float(t0_real), list(tau), opts)
 
 
+def _call(F, xs, zs, p):
+    """One integrator call. IDAS's consistent-initial-condition search can fail on a point that is
+    already consistent (its line search cannot shrink a residual that is round-off): retried once from
+    algebraic values nudged by 1e-6 relative, which it then corrects in a genuine Newton step."""
+    try:
+        return F(x0=xs, z0=zs, p=p)
+    except RuntimeError as exc:
+        if "LINESEARCH" not in str(exc).upper() or not np.size(zs):
+            raise
+        return F(x0=xs, z0=np.asarray(zs) * (1 + 1e-6) + 1e-9, p=p)
+
+
 def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol: float = 1e-8,
              method: str = "auto", n_out: int | None = None, t_out=None, params: dict | None = None,
              inputs: dict | None = None, start: dict | None = None, guess: dict | None = None,
@@ -341,7 +353,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
         xs = self.x / self.xn
         zs = self.z / self.zn if self.zn.size else np.zeros(0)
         try:
-            out = F(x0=xs, z0=zs, p=self.pvec(t0, h))
+            out = _call(F, xs, zs, self.pvec(t0, h))
         except RuntimeError as exc:
             return False, str(exc)
         xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn
@@ -410,6 +422,22 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 continue
             self.refine_at = None
             ratios, switch_at = self._ratios(pts, xs, zs)
+            found = self._first_fold(pts, xs, zs) if self.refine_at is None else None
+            fold, conditioning = found if found is not None else (None, None)
+            before = [j for j in range(fold) if pts[j] < pts[fold]] if fold is not None else []
+            if before and pts[fold] > t_cur and (switch_at is None or fold <= switch_at):
+                # a change point ahead: keep the piece up to it, then step over it with the velocity
+                for m in range(1, fold + 1):
+                    if is_output[m]:
+                        self.x, self.z = xs[m], zs[m]
+                        self._record(pts[m])
+                self.x, self.z = xs[fold].copy(), zs[fold].copy()
+                j = before[-1]
+                t_b = self._step_over(grid, grid[-1], pts[j], xs[j], zs[j], pts[fold], xs[fold], zs[fold], 0.0,
+                                      conditioning)
+                t_cur, per_piece, fraction = (t_b if t_b is not None else pts[fold]), 1, 1.0
+                k = int(np.searchsorted(grid, t_cur, side="right")) - 1
+                continue
             limit = switch_at if self.refine_at is None else self.refine_at
             crossing = self._first_crossing(pts, xs, zs, limit)
             if crossing is not None:
@@ -471,8 +499,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
         tau = tuple(float(v) for v in np.round((pts[1:] - t0) / h, 12))   # 12 digits: grid round-off shares keys
         F = self.integrators.get(tau)
         try:
-            out = F(x0=self.x / self.xn, z0=self.z / self.zn if self.zn.size else np.zeros(0),
-                    p=self.pvec(t0, h))
+            out = _call(F, self.x / self.xn, self.z / self.zn if self.zn.size else np.zeros(0), self.pvec(t0, h))
         except RuntimeError as exc:
             return False, str(exc), None, None
         s = F.stats()

@@ -25,8 +25,8 @@ class Reselection:
     def _ratios(self, pts, xs, zs):
         """Conditioning ratio (running / best selection) at each point, and the first point to switch at."""
         n = pts.size
-        if self.monitor is None:
-            return np.ones(n), None
+        if self.monitor is None or not self.monitor.alternatives:
+            return np.ones(n), None           # nothing to switch to (change points are watched apart)
         U = np.column_stack([self._u_at(t) for t in pts]) if self.plan.varying else \
             np.tile(self.plan.constant.reshape(-1, 1), n)
         # the running choice's quality at every point in one batch; the full comparison with the
@@ -95,6 +95,7 @@ class SelectionMonitor:
     def __init__(self, cm, factory, current):
         self.cm, self.factory, self.current = cm, factory, current
         self.names = factory.names
+        self.alternatives = True          # False: a single possible choice (only change points to watch)
 
     @classmethod
     def create(cls, cm, dae):
@@ -102,14 +103,16 @@ class SelectionMonitor:
         if factory is None:
             return None
         index = cm.stages["index"]
-        if not any(len(level.candidates) > len(level.chosen) for level in index.levels):
-            return None
         if not factory.can_degrade():
-            return None
+            return None       # constant constraint Jacobians (gears): nothing to watch
+        # without an alternative choice of states the monitor still watches for change points
+        alternatives = any(len(level.candidates) > len(level.chosen) for level in index.levels)
         current = frozenset(factory.names.index(n) for n in index.dummies)
         if dae is not cm.dae:
             current = next((k for k, v in cm._selections.items() if v is dae), current)
-        return cls(cm, factory, current)
+        monitor = cls(cm, factory, current)
+        monitor.alternatives = alternatives
+        return monitor
 
     def watched(self, dae, n):
         """The variables the selection depends on (`factory.watched_indices()`), at n points in one call.
