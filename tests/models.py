@@ -88,7 +88,7 @@ def _prescribes_motion(drive) -> bool:
 
 
 def four_bar(a=0.2, b=0.6, c=0.5, d=0.6, theta2=0.3, drive=None, masses=(1.0, 2.0, 1.5), g=9.81,
-             closing="joint_c", name="four_bar") -> mn.Model:
+             name="four_bar") -> mn.Model:
     """Planar four-bar in the x–y plane, all revolute axes along z (the three out-of-plane closure
     constraints are redundant and dropped). Ground pivots A = (0, 0) and D = (d, 0); crank a from A
     at the angle theta2, coupler b, rocker c from D; slender rods m·L²/12 about their middles.

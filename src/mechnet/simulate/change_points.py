@@ -20,6 +20,7 @@ import numpy as np
 from ..core.errors import MechnetError
 from .events import Event
 from .initialize import solve_algebraic
+from .reselection import dae_arguments
 
 RANK_LOSS = 1e-4          # conditioning of the algebraic block below this: the constraints are losing rank
                           # (a regular four-bar position measures ~0.03, 0.04 rad before a fold ~5e-6)
@@ -49,8 +50,7 @@ class ChangePoints:
         dae = self.dae
         cache = self.__dict__.setdefault("_alg_jacobians", {})
         if id(dae) not in cache:
-            args = [ca.SX.sym(k, n) for k, n in (("t", 1), ("x", dae.x.numel()), ("z", dae.z.numel()),
-                                                  ("u", dae.u.numel()), ("p", dae.p.numel()), ("d", dae.d.numel()))]
+            args = dae_arguments(dae)
             cache[id(dae)] = ca.Function("alg_z", args, [ca.jacobian(dae.alg(*args), args[2])])
         return cache[id(dae)]
 

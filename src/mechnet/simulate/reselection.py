@@ -87,6 +87,12 @@ class Reselection:
         return 1.0
 
 
+def dae_arguments(dae) -> list:
+    """Fresh symbols (t, x, z, u, p, d) shaped like the compiled model's function arguments."""
+    return [ca.SX.sym(k, m) for k, m in (("t", 1), ("x", dae.x.numel()), ("z", dae.z.numel()),
+                                         ("u", dae.u.numel()), ("p", dae.p.numel()), ("d", dae.d.numel()))]
+
+
 class SelectionMonitor:
     """Watches the conditioning of the dependent block and proposes a better selection."""
 
@@ -120,8 +126,7 @@ class SelectionMonitor:
         cache = self.__dict__.setdefault("_watched", {})
         key = (id(dae), n)
         if key not in cache:
-            args = [ca.SX.sym(k, m) for k, m in (("t", 1), ("x", dae.x.numel()), ("z", dae.z.numel()),
-                                                  ("u", dae.u.numel()), ("p", dae.p.numel()), ("d", dae.d.numel()))]
+            args = dae_arguments(dae)
             y = dae.observed(*args)
             position = {name: k for k, name in enumerate(dae.observed_names)}
             out = ca.vertcat(*[y[position[self.names[k]]] if self.names[k] in position else ca.SX(0)
