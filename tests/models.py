@@ -210,3 +210,70 @@ def slider_crank_x(r, l, theta):
     """Piston position of the slider-crank (wrist pin from the crank centre)."""
     import numpy as np
     return r * np.cos(theta) + np.sqrt(l ** 2 - (r * np.sin(theta)) ** 2)
+
+
+def stephenson_mm(crank_angle=1.0, c=5e3, preload=2e-3, g=9.81, name="stephenson_mm") -> mn.Model:
+    """A badly scaled one-degree-of-freedom planar six-bar (Stephenson III): millimetre links, gram
+    masses and a stiff line spring, two loops meeting at one pin.
+
+    Ground pivots O0 = (0, 0), O1 = (40, 0) and O2 = (80, 0) mm. Crank O0→Q (10 mm, 2 g), coupler Q→P
+    (45 mm, 5 g), rocker O1→P (30 mm, 4 g), link P→R (40 mm, 5 g), rocker O2→R (30 mm, 4 g). Pin P
+    joins three links: the coupler and the link are both pinned to the first rocker's tip, so the two
+    loops O0-Q-P-O1 and O1-P-R-O2 share it. A line spring c (N/m) pulls the second rocker's tip R
+    towards the ground point S = (100, 40) mm, stretched by `preload` at the start (10 N at the
+    defaults; about 1 kHz oscillation against the grams). The assembly guesses are the closed-form
+    circle intersections at `crank_angle` (crank from +x, rad).
+    """
+    import numpy as np
+    from mechnet.components import multibody as mb
+
+    mm = 1e-3
+    O0, O1, O2, S = (np.array(v, dtype=float) * mm for v in ((0, 0), (40, 0), (80, 0), (100, 40)))
+    lengths = {"crank": 10 * mm, "coupler": 45 * mm, "rocker1": 30 * mm, "link": 40 * mm, "rocker2": 30 * mm}
+    masses = {"crank": 2e-3, "coupler": 5e-3, "rocker1": 4e-3, "link": 5e-3, "rocker2": 4e-3}
+
+    def meet(A, rA, B, rB):            # the upper intersection of the circles |X − A| = rA, |X − B| = rB
+        d = np.linalg.norm(B - A)
+        along = (rA ** 2 - rB ** 2 + d ** 2) / (2 * d)
+        e = (B - A) / d
+        return A + along * e + np.sqrt(rA ** 2 - along ** 2) * np.array([-e[1], e[0]])
+
+    Q = O0 + lengths["crank"] * np.array([np.cos(crank_angle), np.sin(crank_angle)])
+    P = meet(Q, lengths["coupler"], O1, lengths["rocker1"])
+    R = meet(P, lengths["link"], O2, lengths["rocker2"])
+    angle = {k: float(np.arctan2(*(b - a)[::-1])) for k, (a, b) in
+             {"crank": (O0, Q), "coupler": (Q, P), "rocker1": (O1, P), "link": (P, R), "rocker2": (O2, R)}.items()}
+
+    m = mn.Model(name)
+    world = m.add(mb.World(name="world", g=[0.0, -g, 0.0]))
+    rods = {}
+    for key, L in lengths.items():
+        rod = rods[key] = m.add(mb.FixedTranslation(name=key, r=[L, 0, 0]))
+        mass = masses[key]
+        body = m.add(mb.Body(name=f"{key}_body", m=mass, r_cm=[L / 2, 0, 0],
+                             I=np.diag([0.0, mass * L ** 2 / 12, mass * L ** 2 / 12])))
+        m.connect(rod.frame_a, body.frame_a)
+    ground = {}
+    for key, at in (("O1", O1), ("O2", O2), ("S", S)):
+        ground[key] = m.add(mb.FixedTranslation(name=f"ground_{key}", r=[at[0], at[1], 0.0]))
+        m.connect(world.frame_b, ground[key].frame_a)
+
+    def pin(name, a, b, phi):
+        joint = m.add(mb.Revolute(name=name, n=[0, 0, 1], phi_guess=float(np.angle(np.exp(1j * phi)))))
+        m.connect(a, joint.frame_a)
+        m.connect(joint.frame_b, b)
+        return joint
+
+    crank = m.add(mb.Revolute(name="pin_O0", n=[0, 0, 1], phi_start=crank_angle, w_start=0.0))
+    m.connect(world.frame_b, crank.frame_a)
+    m.connect(crank.frame_b, rods["crank"].frame_a)
+    pin("pin_Q", rods["crank"].frame_b, rods["coupler"].frame_a, angle["coupler"] - angle["crank"])
+    pin("pin_O1", ground["O1"].frame_b, rods["rocker1"].frame_a, angle["rocker1"])
+    pin("pin_P_coupler", rods["coupler"].frame_b, rods["rocker1"].frame_b, angle["rocker1"] - angle["coupler"])
+    pin("pin_P_link", rods["rocker1"].frame_b, rods["link"].frame_a, angle["link"] - angle["rocker1"])
+    pin("pin_O2", ground["O2"].frame_b, rods["rocker2"].frame_a, angle["rocker2"])
+    pin("pin_R", rods["link"].frame_b, rods["rocker2"].frame_b, angle["rocker2"] - angle["link"])
+    spring = m.add(mb.Spring(name="spring", c=c, s_unstretched=float(np.linalg.norm(S - R)) - preload))
+    m.connect(rods["rocker2"].frame_b, spring.frame_a)
+    m.connect(ground["S"].frame_b, spring.frame_b)
+    return m

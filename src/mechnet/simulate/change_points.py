@@ -26,24 +26,25 @@ RANK_LOSS = 1e-4          # conditioning of the algebraic block below this: the 
                           # (a regular four-bar position measures ~0.03, 0.04 rad before a fold ~5e-6)
 MAX_GROWTH = 64           # repeated steps over one point grow at most this much
 MAX_OUTPUT_INTERVALS = 2  # and never beyond two output intervals
+HISTORY = 4               # recorded points used to estimate where the rank is lost
 
 
 class ChangePoints:
     """Mixin of the simulation loop (`integrator._Run`): pass a change point after a failure."""
 
-    def _algebraic_conditioning(self):
-        """σ_min/σ_max of the algebraic block ∂alg/∂z (rows scaled to unit norm) at the last accepted
-        point. The selection quality cannot see a change point: it scales each constraint row by its
-        norm, and at a fold a whole row vanishes."""
-        dae = self.dae
-        if not dae.z.numel():
-            return None
-        t = self.T[-1]
-        J = np.asarray(self._alg_jacobian_function()(t, self.X[-1], self.Z[-1], self._u_at(t), self.p, self.d),
-                       dtype=float)
-        J = J / np.maximum(np.linalg.norm(J, axis=1, keepdims=True), 1e-300)
+    def _conditioning(self, ts, xs, zs):
+        """σ_min/σ_max of the algebraic block ∂alg/∂z (rows scaled to unit norm) at each point. The
+        selection quality cannot see a change point: it scales each constraint row by its norm, and at
+        a fold a whole row vanishes."""
+        n, nz = len(ts), self.dae.z.numel()
+        f = self._alg_jacobian_function().map(n)
+        U = np.column_stack([self._u_at(t) for t in ts])
+        J = np.asarray(f(np.reshape(ts, (1, -1)), np.asarray(xs).T, np.asarray(zs).T, U,
+                         np.tile(self.p.reshape(-1, 1), n), np.tile(self.d.reshape(-1, 1), n)), dtype=float)
+        J = J.reshape(nz, n, nz).transpose(1, 0, 2) * self.zn          # per unit of each variable's nominal
+        J = J / np.maximum(np.linalg.norm(J, axis=2, keepdims=True), 1e-300)
         s = np.linalg.svd(J, compute_uv=False)
-        return float(s[-1] / s[0]) if s.size and s[0] > 0 else 0.0
+        return s[:, -1] / np.maximum(s[:, 0], 1e-300)
 
     def _alg_jacobian_function(self):
         """∂alg/∂z of the running compiled selection (cached per selection)."""
@@ -58,76 +59,112 @@ class ChangePoints:
         """After a failure: step over a change point and return the new time, or None (a real failure).
         The step stays before `limit` (the end of the running segment)."""
         limit = grid[-1] if limit is None else limit
-        if self.failure is None or len(self.T) < 2 or self.D[-1] is not self.D[-2]:
+        if self.failure is None or not self.dae.z.numel():
             return None
-        quality = self._algebraic_conditioning()
-        if quality is None or quality >= RANK_LOSS:
+        ts, xs, zs = self._history(np.array(self.T[-1:]), np.array(self.X[-1:]), np.array(self.Z[-1:]))
+        if self.D[-1] is not self.dae or len(ts) < 2:
             return None
-        if self.T[-1] - self.T[-2] <= 0:
+        conds = self._conditioning(ts, xs, zs)
+        if conds[-1] >= RANK_LOSS:
             return None
-        dt = self.failure.t - self.T[-1] if self.failure.t > self.T[-1] else 0.0
-        t_b = self._step_over(grid, limit, self.T[-2], self.X[-2], self.Z[-2], self.T[-1], self.X[-1],
-                              self.Z[-1], dt, quality)
+        dt = self.failure.t - ts[-1] if self.failure.t > ts[-1] else 0.0
+        t_b = self._step_over(grid, limit, ts, xs, zs, conds, dt)
         if t_b is not None:
             self.failure = None
             self.stats.pop("failed_at", None)
         return t_b
 
     def _first_fold(self, pts, xs, zs):
-        """(index, conditioning) of the first monitor point after the start where the algebraic block's
-        conditioning falls below RANK_LOSS: the simulator steps over the change point before the
-        integrator fails there."""
+        """(index, conditioning at every point) of the first monitor point after the start where the
+        algebraic block's conditioning falls below RANK_LOSS: the simulator steps over the change point
+        before the integrator fails there."""
+        self._last_conditioning = None
         if self.cm.selection_factory is None or not self.dae.z.numel() or pts.size < 2:
             return None
-        n, nz = pts.size, self.dae.z.numel()
-        f = self._alg_jacobian_function().map(n)
-        U = np.column_stack([self._u_at(t) for t in pts])
-        J = np.asarray(f(pts.reshape(1, -1), xs.T, zs.T, U, np.tile(self.p.reshape(-1, 1), n),
-                         np.tile(self.d.reshape(-1, 1), n)), dtype=float)
-        J = J.reshape(nz, n, nz).transpose(1, 0, 2)
-        J = J / np.maximum(np.linalg.norm(J, axis=2, keepdims=True), 1e-300)
-        s = np.linalg.svd(J, compute_uv=False)
-        cond = s[:, -1] / np.maximum(s[:, 0], 1e-300)
+        cond = self._conditioning(pts, xs, zs)
+        threshold = min(RANK_LOSS, getattr(self, "_fold_floor", RANK_LOSS))
+        if np.any(cond > RANK_LOSS):
+            self._fold_floor = RANK_LOSS                      # a failed step over is forgotten once regular
         # approaching the point (the conditioning still falling), not leaving it after a step over
-        low = np.nonzero((cond[1:] < RANK_LOSS) & (cond[1:] < cond[:-1]))[0]
-        return (int(low[0]) + 1, float(cond[low[0] + 1])) if low.size else None
+        low = np.nonzero((cond[1:] < threshold) & (cond[1:] < cond[:-1]))[0]
+        self._last_conditioning = cond
+        return (int(low[0]) + 1, cond) if low.size else None
 
-    def _step_over(self, grid, limit, t0, x0, z0, t1, x1, z1, dt_min, quality):
-        """Move from (t1, x1, z1) past the change point along the secant from (t0, x0, z0); the new time
-        or None. Repeated steps near one point grow (the point was not passed yet)."""
-        h = t1 - t0
+    def _fold_ahead(self, pts):
+        """The time of a change point the conditioning at the monitor points `pts` (the start of the
+        last piece checked by `_first_fold`) is heading for, or None when it is far (above
+        100·RANK_LOSS) or not falling."""
+        cond = getattr(self, "_last_conditioning", None)
+        if cond is None or len(pts) < 3 or len(cond) < len(pts) or cond[len(pts) - 1] > 100 * RANK_LOSS:
+            return None
+        keep = [j for j in range(len(pts)) if j == 0 or pts[j] > pts[j - 1]]
+        return _fold_time(np.asarray(pts)[keep], cond[: len(pts)][keep])
+
+    def _step_over(self, grid, limit, ts, xs, zs, conds, dt_min):
+        """Jump from the last of the points (ts, xs, zs) (increasing times, conditioning `conds`) past
+        the change point ahead; the new time or None.
+
+        The first jump goes as far past the estimated point as the start was before it, then the
+        jump doubles. States follow the cubic through the last two points' values and rates (error
+        O(Δt⁴) over the jump); algebraic variables are re-solved from the quadratic through the last
+        three points. A landing is kept when Newton stayed on that branch (the other branch lies
+        O(Δt) away, the prediction O(Δt²)) and the conditioning rises there: the point lies behind."""
+        t1, x1, z1 = ts[-1], xs[-1], zs[-1]
+        h = t1 - ts[-2]
         if h <= 0:
             return None
-        watched = self._branch_variables()
-        xdot, zdot = (x1 - x0) / h, (z1 - z0) / h
-        last = getattr(self, "_last_change_point", None)
-        growth = 1.0
-        if last is not None and t1 <= last[0] + 4 * last[1]:
-            growth = last[2] * 4
-            if growth > MAX_GROWTH:
-                return None
-        dt = growth * max(h, dt_min)
+        t_star = _fold_time(ts, conds)
         spacing = float(np.max(np.diff(grid))) if grid.size > 1 else h
-        longest = max(MAX_GROWTH * h, MAX_OUTPUT_INTERVALS * spacing)
-        while dt <= longest and t1 + dt < limit:
-            t_b = t1 + dt
-            x_b, z_pred = x1 + xdot * dt, z1 + zdot * dt
-            try:
-                z_b = solve_algebraic(self.dae, t_b, x_b, z_pred, self._u_at(t_b), self.p, self.d)
-            except MechnetError:
-                dt *= 2
-                continue
-            # kept only if Newton stayed on the predicted branch: within half the predicted motion
-            gap = np.abs(z_b - z_pred)[watched]
-            if np.all(gap <= 0.5 * np.abs(zdot * dt)[watched] + 1e-8 * (1 + np.abs(z_pred[watched]))):
-                self._bridge(grid, t1, x1, z1, t_b, x_b, z_b)
-                self._last_change_point = (t_b, dt, dt / max(h, 1e-300))
-                self.events.append(Event(float(t_b), "change point",
-                                         f"constraint Jacobian lost rank (algebraic block conditioning "
-                                         f"{quality:.2g}); passed from t = {t1:.9g} s with the velocity"))
-                return t_b
+        longest = min(max(MAX_GROWTH * h, MAX_OUTPUT_INTERVALS * spacing), limit - t1)
+        tries = []
+        if t_star is not None and 0 < 2 * (t_star - t1) <= longest:
+            tries.append(2 * (t_star - t1))
+        dt = max(h, dt_min)
+        while dt <= longest:
+            tries.append(dt)
             dt *= 2
+        watched = self._branch_variables()
+        rates = [np.asarray(self.dae.ode(t, x, z, self._u_at(t), self.p, self.d)).ravel()
+                 for t, x, z in zip(ts[-2:], xs[-2:], zs[-2:])]
+
+        def landing(dt):
+            t_b = t1 + dt
+            x_b = _hermite(ts[-2], xs[-2], rates[0], t1, x1, rates[1], t_b)
+            z_pred = _lagrange(ts[-3:], zs[-3:], t_b)
+            return t_b, x_b, z_pred, solve_algebraic(self.dae, t_b, x_b, z_pred, self._u_at(t_b), self.p, self.d)
+
+        for dt in tries:
+            try:
+                t_b, x_b, z_pred, z_b = landing(dt)
+                z_line = z1 + (z1 - zs[-2]) / h * dt
+                gap = np.abs(z_b - z_pred)[watched]
+                if np.any(gap > 0.5 * np.abs(z_line - z1)[watched] + 1e-8 * (1 + np.abs(z_pred[watched]))):
+                    continue                                       # Newton went to the other branch
+                t_c, x_c, _, z_c = landing(1.05 * dt)
+                c_b, c_c = self._conditioning([t_b, t_c], [x_b, x_c], [z_b, z_c])
+            except MechnetError:
+                continue
+            if c_c <= c_b or c_b < 0.1 * conds[-1]:
+                continue                                           # not past the point yet, or too near it
+            self._bridge(grid, t1, x1, z1, t_b, x_b, z_b)
+            where = f"estimated at t = {t_star:.9g} s; " if t_star is not None else ""
+            self.events.append(Event(float(t_b), "change point",
+                                     f"constraint Jacobian lost rank (algebraic block conditioning "
+                                     f"{conds[-1]:.2g}, {where}passed from t = {t1:.9g} s with the velocity)"))
+            return t_b
         return None
+
+    def _history(self, pts, xs, zs):
+        """The monitor points (pts, xs, zs) preceded by recorded points of the running selection, up to
+        HISTORY points with increasing times."""
+        keep = [j for j in range(len(pts)) if j == 0 or pts[j] > pts[j - 1]]
+        ts, X, Z = list(pts[keep]), list(xs[keep]), list(zs[keep])
+        k = len(self.T) - 1
+        while len(ts) < HISTORY and k >= 0 and self.D[k] is self.dae:
+            if self.T[k] < ts[0]:
+                ts.insert(0, self.T[k]), X.insert(0, self.X[k]), Z.insert(0, self.Z[k])
+            k -= 1
+        return np.array(ts[-HISTORY:]), np.array(X[-HISTORY:]), np.array(Z[-HISTORY:])
 
     def _branch_variables(self):
         """Algebraic variables that decide the branch: coordinates and speeds (variables with a
@@ -144,3 +181,37 @@ class ChangePoints:
             self.x, self.z = x1 + s * (x_b - x1), z1 + s * (z_b - z1)
             self._record(t)
         self.x, self.z = x_b.copy(), z_b.copy()
+
+
+def _fold_time(ts, conds):
+    """Where the conditioning reaches zero, from its last three values: near a change point it falls
+    like c ∝ (t* − t)^k, so w = −dt/d(log c) = (t* − t)/k is linear in t and its root is t*. None
+    when the conditioning is not falling."""
+    if len(ts) < 3 or not np.all(np.diff(conds[-3:]) < 0) or conds[-1] <= 0:
+        return None
+    t, logc = np.asarray(ts[-3:], dtype=float), np.log(conds[-3:])
+    mid = 0.5 * (t[1:] + t[:-1])
+    w = -np.diff(t) / np.diff(logc)
+    if w[1] < w[0]:
+        return float(mid[1] + w[1] * (mid[1] - mid[0]) / (w[0] - w[1]))
+    return float(mid[1] + w[1])            # not yet in the power law: k = 1, a short step
+
+
+def _hermite(t0, x0, v0, t1, x1, v1, t):
+    """The cubic through (t0, x0) and (t1, x1) with slopes v0, v1, at t."""
+    h = t1 - t0
+    s = (t - t0) / h
+    h00, h10, h01, h11 = 2 * s ** 3 - 3 * s ** 2 + 1, s ** 3 - 2 * s ** 2 + s, -2 * s ** 3 + 3 * s ** 2, s ** 3 - s ** 2
+    return h00 * x0 + h10 * h * v0 + h01 * x1 + h11 * h * v1
+
+
+def _lagrange(ts, values, t):
+    """The polynomial through the points (ts, values), at t (a line through two points)."""
+    out = np.zeros_like(values[-1], dtype=float)
+    for i, ti in enumerate(ts):
+        w = 1.0
+        for j, tj in enumerate(ts):
+            if j != i:
+                w *= (t - tj) / (ti - tj)
+        out = out + w * values[i]
+    return out

@@ -424,7 +424,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
             self.refine_at = None
             ratios, switch_at = self._ratios(pts, xs, zs)
             found = self._first_fold(pts, xs, zs) if self.refine_at is None else None
-            fold, conditioning = found if found is not None else (None, None)
+            fold, conds = found if found is not None else (None, None)
             before = [j for j in range(fold) if pts[j] < pts[fold]] if fold is not None else []
             if before and pts[fold] > t_cur and (switch_at is None or fold <= switch_at):
                 # a change point ahead: keep the piece up to it, then step over it with the velocity
@@ -433,9 +433,10 @@ class _Run(StateEvents, Reselection, ChangePoints):
                         self.x, self.z = xs[m], zs[m]
                         self._record(pts[m])
                 self.x, self.z = xs[fold].copy(), zs[fold].copy()
-                j = before[-1]
-                t_b = self._step_over(grid, grid[-1], pts[j], xs[j], zs[j], pts[fold], xs[fold], zs[fold], 0.0,
-                                      conditioning)
+                ts, xh, zh = self._history(pts[: fold + 1], xs[: fold + 1], zs[: fold + 1])
+                t_b = self._step_over(grid, grid[-1], ts, xh, zh, self._conditioning(ts, xh, zh), 0.0)
+                if t_b is None:                       # not passed from here: look again only much closer
+                    self._fold_floor = conds[fold] / 10
                 t_cur, per_piece, fraction = (t_b if t_b is not None else pts[fold]), 1, 1.0
                 k = int(np.searchsorted(grid, t_cur, side="right")) - 1
                 continue
@@ -478,11 +479,20 @@ class _Run(StateEvents, Reselection, ChangePoints):
             else:
                 per_piece = min(longest, 2 * per_piece)
                 if self.monitor is not None and stop >= 2:
-                    # aim the next piece to end near the predicted switch (quality falling to ~0.45)
+                    # aim the next piece to end near the predicted switch (quality falling to ~0.45), or,
+                    # below that (every choice degrading alike), where it has fallen by another tenth
                     slope = (ratios[stop] - ratios[stop - 1]) / max(pts[stop] - pts[stop - 1], 1e-300)
                     if slope < 0:
-                        horizon = (ratios[stop] - 0.45) / -slope
+                        horizon = max(ratios[stop] - 0.45, 0.1 * ratios[stop]) / -slope
                         per_piece = int(min(per_piece, max(1, horizon // (grid[1] - grid[0]))))
+                ahead = self._fold_ahead(pts[: stop + 1])
+                if ahead is not None:
+                    # a change point ahead: end the next piece half-way to it (an integrator running
+                    # into the rank loss crawls to its step limit before it fails)
+                    reach = 0.5 * (ahead - t_cur)
+                    per_piece = int(min(per_piece, max(1, reach // (grid[1] - grid[0]))))
+                    if k + 1 < grid.size and reach < grid[k + 1] - t_cur:
+                        fraction = max(reach / (grid[k + 1] - t_cur), 1e-3)
             steps = np.abs(np.diff(ratios[: stop + 1])) if stop > 0 else np.zeros(1)
             worst = float(np.max(steps)) if steps.size else 0.0
             if worst > 0.05 and density < 256:
