@@ -178,7 +178,7 @@ class BaumgarteReport:
 
 
 def _fn(name, args, out, out_name):
-    return ca.Function(name, list(args), [out], list(ARGS), [out_name])
+    return ca.Function(name, list(args), [out], list(ARGS), [out_name], {"cse": True})
 
 
 def reduce_baumgarte(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, options):

@@ -26,7 +26,7 @@ class EmitOptions:
 
 
 def _fn(name, args, outputs, out_name):
-    return ca.Function(name, list(args), [outputs], list(ARGS), [out_name])
+    return ca.Function(name, list(args), [outputs], list(ARGS), [out_name], {"cse": True})
 
 
 def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: StructureReport,
