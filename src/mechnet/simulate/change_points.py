@@ -127,20 +127,24 @@ class ChangePoints:
         rates = [np.asarray(self.dae.ode(t, x, z, self._u_at(t), self.p, self.d)).ravel()
                  for t, x, z in zip(ts[-2:], xs[-2:], zs[-2:])]
 
-        def landing(dt):
-            t_b = t1 + dt
+        def landing(t_b):
             x_b = _hermite(ts[-2], xs[-2], rates[0], t1, x1, rates[1], t_b)
             z_pred = _lagrange(ts[-3:], zs[-3:], t_b)
-            return t_b, x_b, z_pred, solve_algebraic(self.dae, t_b, x_b, z_pred, self._u_at(t_b), self.p, self.d)
+            return x_b, z_pred, solve_algebraic(self.dae, t_b, x_b, z_pred, self._u_at(t_b), self.p, self.d)
 
         for dt in tries:
+            t_b = t1 + dt
+            following = grid[np.searchsorted(grid, t_b)] if t_b <= grid[-1] else t_b
+            if following - t_b < 0.01 * dt and following <= limit:
+                t_b, dt = following, following - t1      # no sliver of an interval left before an output
             try:
-                t_b, x_b, z_pred, z_b = landing(dt)
+                x_b, z_pred, z_b = landing(t_b)
                 z_line = z1 + (z1 - zs[-2]) / h * dt
                 gap = np.abs(z_b - z_pred)[watched]
                 if np.any(gap > 0.5 * np.abs(z_line - z1)[watched] + 1e-8 * (1 + np.abs(z_pred[watched]))):
                     continue                                       # Newton went to the other branch
-                t_c, x_c, _, z_c = landing(1.05 * dt)
+                t_c = t_b + 0.05 * dt
+                x_c, _, z_c = landing(t_c)
                 c_b, c_c = self._conditioning([t_b, t_c], [x_b, x_c], [z_b, z_c])
             except MechnetError:
                 continue

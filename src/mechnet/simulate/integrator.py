@@ -39,6 +39,7 @@ METHODS = ("auto", "idas", "cvodes-bdf", "cvodes-adams")
 PROGRESS_CHUNKS = 20
 PROGRESS_MIN_POINTS = 1000
 PROGRESS_AFTER_SECONDS = 1.0
+SOLVER_STEPS_PER_CHECK = 8.0   # the state-selection monitor checks its quality about this often
 
 
 class IntegrationWarning(UserWarning):
@@ -499,10 +500,12 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 density *= 2
             elif worst < 0.01 and density > 1 and self.monitor is not None:
                 density //= 2
-            # never coarser than about two solver steps: what the solver resolves, the monitor sees
+            # never coarser than about two solver steps with zero crossings to find (what the solver
+            # resolves, the crossing search sees), or SOLVER_STEPS_PER_CHECK for the quality alone
             h_solver = self.stats.get("hlast", 0.0)
             if np.isfinite(h_solver) and h_solver > 0:
-                density = int(min(1024, max(density, np.ceil((grid[1] - grid[0]) / (2.0 * h_solver)))))
+                per_check = 2.0 if self.dae.zero_labels else SOLVER_STEPS_PER_CHECK
+                density = int(min(1024, max(density, np.ceil((grid[1] - grid[0]) / (per_check * h_solver)))))
 
     def _dense(self, pts):
         """One integrator call over pts (unrecorded); returns the states at every point."""
