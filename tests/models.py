@@ -277,3 +277,39 @@ def stephenson_mm(crank_angle=1.0, c=5e3, preload=2e-3, g=9.81, name="stephenson
     m.connect(rods["rocker2"].frame_b, spring.frame_a)
     m.connect(ground["S"].frame_b, spring.frame_b)
     return m
+
+
+def stephenson_mm_by_hand(c=5e3, preload=2e-3, g=9.81, crank_angle=1.0):
+    """`stephenson_mm` written by hand, independently of mechnet, in its one free coordinate θ (the crank
+    angle): the other links from closed-form circle intersections, the motion from Lagrange's equation
+    M(θ) θ̈ + ½ M'(θ) θ̇² + V'(θ) = 0. Returns (x = [θ, θ̇], ẋ, energy function E(θ, θ̇)) in CasADi."""
+    import casadi as ca
+    import numpy as np
+
+    MM = 1e-3
+    O0, O1, O2, S = (np.array(v, dtype=float) * MM for v in ((0, 0), (40, 0), (80, 0), (100, 40)))
+    masses = {"crank": 2e-3, "coupler": 5e-3, "rocker1": 4e-3, "link": 5e-3, "rocker2": 4e-3}
+
+    def meet(A, rA, B, rB):            # upper intersection of |X − A| = rA and |X − B| = rB
+        d = ca.norm_2(B - A)
+        along = (rA ** 2 - rB ** 2 + d ** 2) / (2 * d)
+        e = (B - A) / d
+        return A + along * e + ca.sqrt(rA ** 2 - along ** 2) * ca.vertcat(-e[1], e[0])
+
+    th, w = ca.SX.sym("theta"), ca.SX.sym("w")
+    Q = ca.DM(O0) + 10 * MM * ca.vertcat(ca.cos(th), ca.sin(th))
+    P = meet(Q, 45 * MM, ca.DM(O1), 30 * MM)
+    R = meet(P, 40 * MM, ca.DM(O2), 30 * MM)
+    links = {"crank": (ca.DM(O0), Q, 10 * MM), "coupler": (Q, P, 45 * MM), "rocker1": (ca.DM(O1), P, 30 * MM),
+             "link": (P, R, 40 * MM), "rocker2": (ca.DM(O2), R, 30 * MM)}
+    M, V = 0, 0
+    for key, (a, b, L) in links.items():
+        centre, angle = (a + b) / 2, ca.atan2(b[1] - a[1], b[0] - a[0])
+        m = masses[key]
+        M += m * ca.sumsqr(ca.jacobian(centre, th)) + m * L ** 2 / 12 * ca.jacobian(angle, th) ** 2
+        V += m * g * centre[1]
+    R0 = np.array(ca.Function("R0", [th], [R])(crank_angle)).ravel()
+    s_unstretched = np.linalg.norm(S - R0) - preload
+    V += 0.5 * c * (ca.norm_2(ca.DM(S) - R) - s_unstretched) ** 2
+    accel = -(0.5 * ca.jacobian(M, th) * w ** 2 + ca.jacobian(V, th)) / M
+    return ca.vertcat(th, w), ca.vertcat(w, accel), ca.Function("E", [th, w], [0.5 * M * w ** 2 + V])

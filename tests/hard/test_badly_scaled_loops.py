@@ -13,44 +13,14 @@ import numpy as np
 
 from mechnet.components import multibody as mb
 
-from models import stephenson_mm
+from models import stephenson_mm, stephenson_mm_by_hand
 
 MM = 1e-3
 T_END, N_OUT = 0.02, 201
 
 
-def hand_written_six_bar(c=5e3, preload=2e-3, g=9.81, crank_angle=1.0):
-    """(x = [θ, θ̇], ẋ, energy function) of the six-bar, written independently of mechnet."""
-    O0, O1, O2, S = (np.array(v, dtype=float) * MM for v in ((0, 0), (40, 0), (80, 0), (100, 40)))
-    masses = {"crank": 2e-3, "coupler": 5e-3, "rocker1": 4e-3, "link": 5e-3, "rocker2": 4e-3}
-
-    def meet(A, rA, B, rB):            # upper intersection of |X − A| = rA and |X − B| = rB
-        d = ca.norm_2(B - A)
-        along = (rA ** 2 - rB ** 2 + d ** 2) / (2 * d)
-        e = (B - A) / d
-        return A + along * e + ca.sqrt(rA ** 2 - along ** 2) * ca.vertcat(-e[1], e[0])
-
-    th, w = ca.SX.sym("theta"), ca.SX.sym("w")
-    Q = ca.DM(O0) + 10 * MM * ca.vertcat(ca.cos(th), ca.sin(th))
-    P = meet(Q, 45 * MM, ca.DM(O1), 30 * MM)
-    R = meet(P, 40 * MM, ca.DM(O2), 30 * MM)
-    links = {"crank": (ca.DM(O0), Q, 10 * MM), "coupler": (Q, P, 45 * MM), "rocker1": (ca.DM(O1), P, 30 * MM),
-             "link": (P, R, 40 * MM), "rocker2": (ca.DM(O2), R, 30 * MM)}
-    M, V = 0, 0
-    for key, (a, b, L) in links.items():
-        centre, angle = (a + b) / 2, ca.atan2(b[1] - a[1], b[0] - a[0])
-        m = masses[key]
-        M += m * ca.sumsqr(ca.jacobian(centre, th)) + m * L ** 2 / 12 * ca.jacobian(angle, th) ** 2
-        V += m * g * centre[1]
-    R0 = np.array(ca.Function("R0", [th], [R])(crank_angle)).ravel()
-    s_unstretched = np.linalg.norm(S - R0) - preload
-    V += 0.5 * c * (ca.norm_2(ca.DM(S) - R) - s_unstretched) ** 2
-    accel = -(0.5 * ca.jacobian(M, th) * w ** 2 + ca.jacobian(V, th)) / M
-    return ca.vertcat(th, w), ca.vertcat(w, accel), ca.Function("E", [th, w], [0.5 * M * w ** 2 + V])
-
-
 def run_hand_written(rtol, atol, grid):
-    x, rate, energy = hand_written_six_bar()
+    x, rate, energy = stephenson_mm_by_hand()
     F = ca.integrator("F", "cvodes", {"x": x, "ode": rate}, 0.0, grid[1:],
                       {"reltol": rtol, "abstol": atol, "max_num_steps": 100_000})
     out = np.array(F(x0=[1.0, 0.0])["xf"])
