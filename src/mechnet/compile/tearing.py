@@ -62,17 +62,19 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
     variables; the caller composes them (`compose`). `guarded`: the block holds
     differentiated constraints, whose regularity the dummy-derivative selection
     guarantees (and the simulator monitors), so a block linear in its unknowns
-    is solved whatever its coefficients depend on.
+    is solved whatever its coefficients depend on (torn, then its tearing variables solved
+    symbolically).
     """
     n = len(variables)
     vec = ca.vertcat(*[symbols[v] for v in variables])
     jac = ca.jacobian(ca.vertcat(*residuals), vec)
     constant_coefficients = all(s.element_hash() in parameter_hashes for s in ca.symvar(jac))
-    if guarded and not constant_coefficients and not ca.depends_on(jac, vec):
-        rhs = -ca.substitute(ca.vertcat(*residuals), vec, ca.DM.zeros(n))
-        sol = rhs / jac if n == 1 else refined_solve(jac, rhs)
-        return BlockSolution([(v, sol[k]) for k, v in enumerate(variables)], [], [], [])
-    linear = n > 1 and constant_coefficients
+    guarded_linear = guarded and not constant_coefficients and not ca.depends_on(jac, vec)
+    if guarded_linear and n == 1:
+        return BlockSolution([(variables[0], -ca.substitute(residuals[0], vec, ca.DM.zeros(1)) / jac)], [], [], [])
+    # a linear block is torn like any other and closed by a symbolic solve of its tearing variables
+    # only (the millimetre six-bar's acceleration block: 29 unknowns, 11 tears; its ODE shrank fivefold)
+    linear = n > 1 and (constant_coefficients or guarded_linear)
     unknown = {symbols[v].element_hash(): v for v in variables}
     solved, tears, out_res, rows = [], [], [], []
     remaining = set(variables)
@@ -137,10 +139,11 @@ def refined_solve(a, b):
     """x = a⁻¹b symbolically, with one step of iterative refinement.
 
     CasADi's symbolic solve factors with modified Gram-Schmidt, whose error grows with the
-    conditioning: the 29×29 acceleration block of a millimetre six-bar (condition 2e8, rows in
-    newtons next to m/s²) came out with 4e-7 relative error, noise that stalled the integrator at
-    tight tolerances. One refinement step, x₀ + a⁻¹(b − a·x₀), brings it to 5e-16; the duplicated
-    factorisation is merged by common-subexpression elimination (`cse` in the compiled functions),
-    so it costs about a tenth more instructions."""
+    conditioning. The acceleration block of a millimetre six-bar (tests/models.py: stephenson_mm) has
+    rows in newtons next to m/s². Solved whole (29×29, condition 2e8), it came out with 4e-7 relative
+    error; solved through its 11 tearing variables, the accelerations still carried 2e-7 relative
+    noise. That noise stalled IDAS at tight tolerances. One refinement step, x₀ + a⁻¹(b − a·x₀),
+    brings the noise to 1e-14. The compiled functions use common-subexpression elimination (`cse`),
+    which merges the duplicated factorisation, so the step costs about a tenth more instructions."""
     x0 = ca.solve(a, b)
     return x0 + ca.solve(a, b - ca.mtimes(a, x0))
