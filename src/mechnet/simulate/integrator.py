@@ -386,7 +386,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
         covers a twentieth of the run, so restarts stay few.
         """
         n_int = grid.size - 1
-        longest = max(1, n_int // 20)
+        longest = max(1, n_int // 5)
         per_piece = 1
         density = 4                                   # monitor points per output interval
         fraction = 1.0                                # of the first interval, when pieces must be short
@@ -480,11 +480,13 @@ class _Run(StateEvents, Reselection, ChangePoints):
             else:
                 per_piece = min(longest, 2 * per_piece)
                 if self.monitor is not None and stop >= 2:
-                    # aim the next piece to end near the predicted switch (quality falling to ~0.45), or,
-                    # below that (every choice degrading alike), where it has fallen by another tenth
+                    # aim the next piece to end near the predicted switch: the quality falling to 0.9× the
+                    # hysteresis share of the best choice's quality at the last full check (~0.45 when
+                    # the best is ideal; a loop's choices all sit lower)
                     slope = (ratios[stop] - ratios[stop - 1]) / max(pts[stop] - pts[stop - 1], 1e-300)
-                    if slope < 0:
-                        horizon = max(ratios[stop] - 0.45, 0.1 * ratios[stop]) / -slope
+                    switch_level = 0.9 * self.monitor.HYSTERESIS * self.monitor.last_best
+                    if slope < 0 and ratios[stop] > switch_level:
+                        horizon = (ratios[stop] - switch_level) / -slope
                         per_piece = int(min(per_piece, max(1, horizon // (grid[1] - grid[0]))))
                 ahead = self._fold_ahead(pts[: stop + 1])
                 if ahead is not None:

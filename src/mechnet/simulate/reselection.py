@@ -102,6 +102,7 @@ class SelectionMonitor:
         self.cm, self.factory, self.current = cm, factory, current
         self.names = factory.names
         self.alternatives = True          # False: a single possible choice (only change points to watch)
+        self.last_best = 1.0              # the best choice's quality at the last full check
 
     @classmethod
     def create(cls, cm, dae):
@@ -151,8 +152,9 @@ class SelectionMonitor:
         q_signed = self.factory.quality(self.factory.levels_for(self.current), values, signed=True, params=params)
         q_now = abs(q_signed)
         if best == self.current:
+            self.last_best = q_now
             return q_signed, None
-        q_best = self.factory.quality(levels, values, params=params)
+        q_best = self.last_best = self.factory.quality(levels, values, params=params)
         if q_now >= self.HYSTERESIS * q_best:
             return q_signed, None
         if probe:
