@@ -74,6 +74,17 @@ class ChangePoints:
             self.stats.pop("failed_at", None)
         return t_b
 
+    def _step_over_from(self, t, grid):
+        """After a failed piece from (t, self.x, self.z): when the algebraic block is already losing
+        rank there, step over the change point at once; the new time or None."""
+        if self.cm.selection_factory is None or not self.dae.z.numel():
+            return None
+        ts, xs, zs = self._history(np.array([t]), self.x.reshape(1, -1), self.z.reshape(1, -1))
+        if len(ts) < 2:
+            return None
+        conds = self._conditioning(ts, xs, zs)
+        return self._step_over(grid, grid[-1], ts, xs, zs, conds, 0.0) if conds[-1] < RANK_LOSS else None
+
     def _first_fold(self, pts, xs, zs):
         """(index, conditioning at every point) of the first monitor point after the start where the
         algebraic block's conditioning falls below RANK_LOSS: the simulator steps over the change point
@@ -148,8 +159,8 @@ class ChangePoints:
                 c_b, c_c = self._conditioning([t_b, t_c], [x_b, x_c], [z_b, z_c])
             except MechnetError:
                 continue
-            if c_c <= c_b or c_b < 0.1 * conds[-1]:
-                continue                                           # not past the point yet, or too near it
+            if c_c <= c_b or c_b < 0.1 * max(conds[-1], RANK_LOSS):
+                continue                    # not past the point yet, or too near it for the integrator
             self._bridge(grid, t1, x1, z1, t_b, x_b, z_b)
             where = f"estimated at t = {t_star:.9g} s; " if t_star is not None else ""
             self.events.append(Event(float(t_b), "change point",

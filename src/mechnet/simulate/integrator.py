@@ -70,11 +70,12 @@ class _Integrators:
         self.inputs = inputs
         self.base_key = (id(dae), plugin, tuple(sorted(extra.items())), rtol, atol, max_steps, inputs.key())
 
-    def get(self, tau: tuple):
-        """Integrator over a normalised grid (t = t0 + τ·h): reusable for every segment of that pattern."""
-        key = self.base_key + (tau,)
+    def get(self, tau: tuple, max_steps: int | None = None):
+        """Integrator over a normalised grid (t = t0 + τ·h): reusable for every segment of that pattern.
+        `max_steps` lowers the step limit of this call (a power of two, so few variants are built)."""
+        key = self.base_key + (tau, max_steps)
         if key not in self.cm._integrators:
-            self.cm._integrators[key] = self._build(tau)
+            self.cm._integrators[key] = self._build(tau, max_steps=max_steps)
         return self.cm._integrators[key]
 
     def get_real(self, points: tuple):
@@ -88,7 +89,7 @@ class _Integrators:
             self.cm._integrators[key] = self._build(tuple(points[1:]), t0_real=points[0])
         return self.cm._integrators[key]
 
-    def _build(self, tau: tuple, t0_real=None):
+    def _build(self, tau: tuple, t0_real=None, max_steps=None):
         """Parameters of the integrator: [u; p; d; t0; h]."""
         dae = self.dae
         sym = ca.MX if self.inputs.varying else ca.SX
@@ -109,7 +110,7 @@ class _Integrators:
         if dae.z.numel():
             spec["z"] = zs
             spec["alg"] = dae.alg(*args)
-        opts = dict(self.extra, reltol=self.rtol, abstol=self.atol, max_num_steps=self.max_steps,
+        opts = dict(self.extra, reltol=self.rtol, abstol=self.atol, max_num_steps=max_steps or self.max_steps,
                     disable_internal_warnings=True, show_eval_warnings=False)
         return ca.integrator("F", self.plugin, spec, 0.0 if t0_real is None else float(t0_real), list(tau), opts)
 
@@ -407,6 +408,11 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 is_output.extend([False] * (density - 1) + [b == grid[k + 1] or b in grid_set])
             pts = np.array(pts)
             ok, message, xs, zs = self._dense(pts)
+            t_next = self._step_over_from(t_cur, grid) if not ok else None
+            if t_next is not None:                    # failed at a change point: shorter pieces cannot help
+                t_cur, per_piece, fraction = t_next, 1, 1.0
+                k = int(np.searchsorted(grid, t_cur, side="right")) - 1
+                continue
             if not ok and per_piece > 1:
                 per_piece //= 2                       # maybe a switch was due inside: look closer
                 continue
@@ -513,7 +519,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
         """One integrator call over pts (unrecorded); returns the states at every point."""
         t0, h = pts[0], pts[-1] - pts[0]
         tau = tuple(float(v) for v in np.round((pts[1:] - t0) / h, 12))   # 12 digits: grid round-off shares keys
-        F = self.integrators.get(tau)
+        F = self.integrators.get(tau, self._step_budget(h))
         try:
             out = _call(F, self.x / self.xn, self.z / self.zn if self.zn.size else np.zeros(0), self.pvec(t0, h))
         except RuntimeError as exc:
@@ -527,6 +533,17 @@ class _Run(StateEvents, Reselection, ChangePoints):
         zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn) if self.zn.size \
             else np.zeros((xf.shape[0], 0))
         return True, "", np.vstack([self.x, xf]), np.vstack([self.z.reshape(1, -1), zf])
+
+    def _step_budget(self, h):
+        """Step limit of a monitored piece of length h: 8× the steps the run has needed per second so
+        far (at least 1024, a power of two, at most max_steps). A piece that runs into a change point
+        the monitor did not foresee then fails after a few thousand steps, not after max_steps
+        (0.7 s each on the parallelogram), and is retried shorter."""
+        steps, t_done = self.stats["nsteps"], (self.T[-1] - self.T[0]) if len(self.T) > 1 else 0.0
+        if steps < 100 or t_done <= 0:
+            return None
+        budget = 2 ** int(np.ceil(np.log2(max(1024.0, 8.0 * steps / t_done * h))))
+        return budget if budget < self.settings[4] else None
 
     def _restart_at(self, t, cause):
         """A time event: states are continuous; algebraic variables are re-solved at the new time."""
