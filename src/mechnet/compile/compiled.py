@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from .artifacts import SemiExplicitDAE
+from .index_reduction import grouped_differentiations
 
 
 class CompiledModel:
@@ -111,7 +112,7 @@ class CompiledModel:
         index = self.stages.get("index")
         if index is None or not index.differentiated:
             return f"  index: {0 if self.dae.is_ode else 1} (no index reduction needed)"
-        diffs = "; ".join(f"{label} ×{n}" for label, n in index.differentiated)
+        diffs = grouped_differentiations(index.differentiated)
         how = (f"dummy derivatives {', '.join(index.dummies)}" if index.dummies
                else "no dummy derivatives (Baumgarte-stabilised, every coordinate a state)")
         return f"  index: structural index {index.index} reduced; differentiated {diffs}; {how}"

@@ -56,9 +56,23 @@ class IndexReport:
     def summary(self) -> str:
         if not self.differentiated:
             return "reduce: no constraint among states, nothing differentiated"
-        diffs = ", ".join(f"{label} ×{n}" for label, n in self.differentiated)
-        return (f"reduce: structural index {self.index}; differentiated {diffs}; "
+        return (f"reduce: structural index {self.index}; differentiated {grouped_differentiations(self.differentiated)}; "
                 f"dummy derivatives {', '.join(self.dummies)}")
+
+
+def grouped_differentiations(differentiated) -> str:
+    """'label ×n' items, '; '-separated. Consecutive labels that share their text up to the last ', '
+    (a loop's closure residuals) are listed once: 'pin_c (Revolute), loop 1 (...): closure residual
+    position x (frame_a axes) ×2, closure residual position y (frame_a axes) ×2'."""
+    groups: list = []                  # (shared head, [(item, original label, n)])
+    for label, n in differentiated:
+        head, _, item = label.split(" — ")[0].rpartition(", ")
+        if head and groups and groups[-1][0] == head:
+            groups[-1][1].append((item, label, n))
+        else:
+            groups.append((head, [(item, label, n)]))
+    return "; ".join(f"{head}: " + ", ".join(f"{item} ×{n}" for item, _, n in members) if len(members) > 1
+                     else f"{members[0][1]} ×{members[0][2]}" for head, members in groups)
 
 
 class _Graph:

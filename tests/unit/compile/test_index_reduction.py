@@ -162,3 +162,17 @@ def test_differentiation_counts_agree_with_casadi(case):
     assert report.differentiated == index.differentiated
     assert report.index == index.index
     assert dict(report.state_relations) == {k: n for k, n in relations.items() if n > 0}
+
+
+def test_summary_lists_a_loops_differentiated_residuals_once_under_their_loop():
+    # The six-bar's two loops: each loop's label (cut joint, loop, its joints) appears once in the
+    # index line, followed by its three planar closure residuals and how often each was differentiated.
+    from models import stephenson_mm
+
+    line = next(l for l in stephenson_mm().compile().summary().splitlines() if l.strip().startswith("index:"))
+    for cut in ("pin_O1", "pin_R"):
+        head = f"{cut} (Revolute), loop "
+        assert line.count(head) == 1
+        tail = line.split(head)[1].split("(Revolute), loop")[0].split("; dummy derivatives")[0]
+        assert "closure residual position x (frame_a axes) ×2" in tail
+        assert "closure residual rotation about z (frame_a axes) ×1" in tail
