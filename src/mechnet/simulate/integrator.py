@@ -510,7 +510,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 density //= 2
             # never coarser than about two solver steps with zero crossings to find (what the solver
             # resolves, the crossing search sees), or SOLVER_STEPS_PER_CHECK for the quality alone
-            h_solver = self.stats.get("hlast", 0.0)
+            h_solver = getattr(self, "_mean_step", 0.0)
             if np.isfinite(h_solver) and h_solver > 0:
                 per_check = 2.0 if self.dae.zero_labels else SOLVER_STEPS_PER_CHECK
                 density = int(min(1024, max(density, np.ceil((grid[1] - grid[0]) / (per_check * h_solver)))))
@@ -529,6 +529,8 @@ class _Run(StateEvents, Reselection, ChangePoints):
             self.stats[key] += int(s.get(key, 0))
         self.stats["segments"] += 1
         self.stats["hlast"] = float(s.get("hlast", float("nan"))) * h
+        # the mean step of this piece (the last step alone can be tiny: a restart, an output time)
+        self._mean_step = h / max(int(s.get("nsteps", 0)), 1)
         xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn
         zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn) if self.zn.size \
             else np.zeros((xf.shape[0], 0))
