@@ -317,22 +317,34 @@ class _Tree:
         for link in moving:
             child_links[self.link_of[self.joint[link][3]]].append(link)
         IA, Ia, U, D = {}, {}, {}, {}
+        massless, reaches_cut = set(), {}
         for link in reversed(moving):                      # inward: articulated inertia and bias
             e, S, _, _ = self.joint[link]
             IA_k, p_k = M[link], bias[link]
+            reaches_cut[link] = any(id(fr.owner) in self.cut_ids for n in self.link_nodes[link]
+                                    for fr in self.loads_at[n]) or any(reaches_cut[j] for j in child_links[link])
             for j in child_links[link]:
                 dj, _ = self.offset(j)
+                if j in massless:                          # passes its loads on: the wrench through its joint
+                    p_k = p_k + _transport_wrench(P[j], dj)
+                    continue
                 ej, Sj, _, _ = self.joint[j]
                 u_j = ej.axis_load() - ca.dot(Sj, P[j])
                 IA_k = IA_k + _transport_inertia(Ia[j], dj)
                 p_k = p_k + _transport_wrench(ca.mtimes(Ia[j], self.velocity_terms(j)) + P[j] + U[j] * u_j / D[j], dj)
+            if reaches_cut[link] and all(ca.SX(x).is_zero() for x in ca.vertsplit(ca.vec(IA_k))):
+                # a massless link inside a loop: its joint equation S·P = axis load constrains the loop's
+                # wrench, and its acceleration comes from the differentiated closure
+                massless.add(link)
+                IA[link] = IA_k
+                Ia[link], U[link], D[link] = ca.SX.zeros(6, 6), ca.SX.zeros(6), ca.SX(0)
+                P[link] = _defined(tree, e, [f"{e.path}.bias_wrench[{i}]" for i in range(6)], ["N*m"] * 3 + ["N"] * 3,
+                                   p_k, "loads through a massless link of a loop")
+                continue
             if ca.SX(ca.dot(S, ca.mtimes(IA_k, S))).is_zero() and not getattr(e, "use_flange", False):
-                in_loop = (" (it is part of a kinematic loop, cut at " + ", ".join(c.path for c in self.cuts)
-                           + ": every link inside a loop needs mass, or inertia about its joint axes)"
-                           if self.cuts else "")
                 raise StructureError(
                     f"joint {e.path} ({type(e).__name__}) moves no mass: nothing beyond it has mass (or inertia "
-                    f"about its axis), so its acceleration is undetermined{in_loop}; attach a Body beyond the "
+                    f"about its axis), so its acceleration is undetermined; attach a Body beyond the "
                     f"joint, or drive it through its flange (use_flange=True)")
             IA[link] = IA_k = self.let(IA_k, f"{e.path}.articulated_inertia")
             U[link] = ca.mtimes(IA_k, S)
