@@ -39,7 +39,7 @@ METHODS = ("auto", "idas", "cvodes-bdf", "cvodes-adams")
 PROGRESS_CHUNKS = 20
 PROGRESS_MIN_POINTS = 1000
 PROGRESS_AFTER_SECONDS = 1.0
-SOLVER_STEPS_PER_CHECK = 8.0   # the state-selection monitor checks its quality about this often
+SOLVER_STEPS_PER_CHECK = 16.0   # the state-selection monitor checks its quality about this often
 
 
 class IntegrationWarning(UserWarning):
