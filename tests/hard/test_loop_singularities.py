@@ -62,6 +62,7 @@ def test_parallelogram_passes_its_change_point_ten_times_on_its_branch():
                  drive=rot.Speed(name="motor", w_ref=Constant(2.0), phi_start=0.5))
     res = m.compile().simulate(16.0, rtol=1e-8, atol=1e-10, n_out=801)
     assert res.success, res.failure
+    assert np.array_equal(res.t, np.linspace(0.0, 16.0, 801))      # landings on output times are recorded
     passages = [e for e in res.events if e.kind == "change point"]
     assert len(passages) == 10
     folds = (np.pi * np.arange(1, 11) - 0.5) / 2.0                  # closed form: θ2 = 0.5 + 2t = kπ

@@ -61,12 +61,13 @@ class IndexReport:
 
 
 def grouped_differentiations(differentiated) -> str:
-    """'label ×n' items, '; '-separated. Consecutive labels that share their text up to the last ', '
-    (a loop's closure residuals) are listed once: 'pin_c (Revolute), loop 1 (...): closure residual
+    """'label ×n' items, '; '-separated. A loop's consecutive closure residuals (labels sharing their
+    text up to ', closure residual') are listed once, without their common description: 'pin_c (Revolute), loop 1 (...): closure residual
     position x (frame_a axes) ×2, closure residual position y (frame_a axes) ×2'."""
     groups: list = []                  # (shared head, [(item, original label, n)])
     for label, n in differentiated:
-        head, _, item = label.split(" — ")[0].rpartition(", ")
+        head, _, item = label.split(" — ")[0].rpartition(", closure residual ")
+        item = f"closure residual {item}" if head else item
         if head and groups and groups[-1][0] == head:
             groups[-1][1].append((item, label, n))
         else:

@@ -363,7 +363,7 @@ class _Tree:
             pre = ca.vertcat(Ap[:3], Ap[3:] + _cross(Ap[:3], d)) + self.velocity_terms(link)
             qdd = der(e.speed())
             _eq(tree, e, D[link] * qdd - (e.axis_load() - ca.dot(S, ca.mtimes(IA[link], pre) + P[link])),
-                "joint acceleration (articulated-body outward pass)", regular=True)
+                "joint acceleration (articulated-body outward pass)", regular=link not in massless)
             side = "frame_b" if self.joint[link][2] else "frame_a"
             self.A[link] = _defined(tree, e, [f"{e.path}.{side}.z_0[{i}]" for i in range(3)] +
                                     [f"{e.path}.{side}.a_0[{i}]" for i in range(3)], ["rad/s2"] * 3 + ["m/s2"] * 3,

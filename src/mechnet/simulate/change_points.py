@@ -4,13 +4,13 @@ A parallelogram four-bar folds flat twice per revolution: there the loop's
 constraint Jacobian loses rank for every choice of states, two branches of
 solutions cross (parallelogram and anti-parallelogram), and the integrator's
 Newton iteration fails. Re-selecting states cannot help (DESIGN.md). The
-branch rule steps over the point instead. From the last accepted point, every
-variable moves on with its velocity (the secant of the last two accepted
-points, a least-squares step through the rank drop). The algebraic variables
-are re-solved at the new time from that prediction, and the solution is kept
-only if Newton stayed near the prediction. Near the crossing the other branch
-lies O(Δt) away and the continuing one O(Δt²), so the motion keeps its
-branch, as a physical mechanism with inertia does.
+branch rule steps over the point instead: from the last accepted points the
+conditioning's fall locates the point, the states are extrapolated past it
+along their rates, the algebraic variables are re-solved there from a
+prediction, and the landing is kept only if Newton stayed near the
+prediction. Near the crossing the other branch lies O(Δt) away and the
+continuing one O(Δt²), so the motion keeps its branch, as a physical
+mechanism with inertia does.
 """
 from __future__ import annotations
 
@@ -24,8 +24,8 @@ from .reselection import dae_arguments
 
 RANK_LOSS = 1e-4          # conditioning of the algebraic block below this: the constraints are losing rank
                           # (a regular four-bar position measures ~0.03, 0.04 rad before a fold ~5e-6)
-MAX_GROWTH = 64           # repeated steps over one point grow at most this much
-MAX_OUTPUT_INTERVALS = 2  # and never beyond two output intervals
+MAX_GROWTH = 64           # a jump spans at most this many times the last step before it,
+MAX_OUTPUT_INTERVALS = 2  # or two output intervals when that is longer
 HISTORY = 4               # recorded points used to estimate where the rank is lost
 
 
@@ -67,8 +67,7 @@ class ChangePoints:
         conds = self._conditioning(ts, xs, zs)
         if conds[-1] >= RANK_LOSS:
             return None
-        dt = self.failure.t - ts[-1] if self.failure.t > ts[-1] else 0.0
-        t_b = self._step_over(grid, limit, ts, xs, zs, conds, dt)
+        t_b = self._step_over(grid, limit, ts, xs, zs, conds)
         if t_b is not None:
             self.failure = None
             self.stats.pop("failed_at", None)
@@ -76,14 +75,16 @@ class ChangePoints:
 
     def _step_over_from(self, t, grid):
         """After a failed piece from (t, self.x, self.z): when the algebraic block is already losing
-        rank there, step over the change point at once; the new time or None."""
+        rank there, and still falling, step over the change point at once; the new time or None."""
         if self.cm.selection_factory is None or not self.dae.z.numel():
             return None
         ts, xs, zs = self._history(np.array([t]), self.x.reshape(1, -1), self.z.reshape(1, -1))
         if len(ts) < 2:
             return None
         conds = self._conditioning(ts, xs, zs)
-        return self._step_over(grid, grid[-1], ts, xs, zs, conds, 0.0) if conds[-1] < RANK_LOSS else None
+        if conds[-1] >= RANK_LOSS or conds[-1] >= conds[-2]:
+            return None
+        return self._step_over(grid, grid[-1], ts, xs, zs, conds)
 
     def _first_fold(self, pts, xs, zs):
         """(index, conditioning at every point) of the first monitor point after the start where the
@@ -93,9 +94,9 @@ class ChangePoints:
         if self.cm.selection_factory is None or not self.dae.z.numel() or pts.size < 2:
             return None
         cond = self._conditioning(pts, xs, zs)
-        threshold = min(RANK_LOSS, getattr(self, "_fold_floor", RANK_LOSS))
         if np.any(cond > RANK_LOSS):
             self._fold_floor = RANK_LOSS                      # a failed step over is forgotten once regular
+        threshold = min(RANK_LOSS, self.__dict__.get("_fold_floor") or RANK_LOSS)
         # approaching the point (the conditioning still falling), not leaving it after a step over
         low = np.nonzero((cond[1:] < threshold) & (cond[1:] < cond[:-1]))[0]
         self._last_conditioning = cond
@@ -111,12 +112,12 @@ class ChangePoints:
         keep = [j for j in range(len(pts)) if j == 0 or pts[j] > pts[j - 1]]
         return _fold_time(np.asarray(pts)[keep], cond[: len(pts)][keep])
 
-    def _step_over(self, grid, limit, ts, xs, zs, conds, dt_min):
+    def _step_over(self, grid, limit, ts, xs, zs, conds):
         """Jump from the last of the points (ts, xs, zs) (increasing times, conditioning `conds`) past
         the change point ahead; the new time or None.
 
-        The first jump goes as far past the estimated point as the start was before it, then the
-        jump doubles. States follow the cubic through the last two points' values and rates (error
+        The first try goes as far past the estimated point as the start was before it; then tries
+        double from the last step before the start, up to MAX_GROWTH steps or two output intervals. States follow the cubic through the last two points' values and rates (error
         O(Δt⁴) over the jump); algebraic variables are re-solved from the quadratic through the last
         three points. A landing is kept when Newton stayed on that branch (the other branch lies
         O(Δt) away, the prediction O(Δt²)) and the conditioning rises there: the point lies behind."""
@@ -130,7 +131,7 @@ class ChangePoints:
         tries = []
         if t_star is not None and 0 < 2 * (t_star - t1) <= longest:
             tries.append(2 * (t_star - t1))
-        dt = max(h, dt_min)
+        dt = h
         while dt <= longest:
             tries.append(dt)
             dt *= 2
@@ -174,8 +175,9 @@ class ChangePoints:
         HISTORY points with increasing times."""
         keep = [j for j in range(len(pts)) if j == 0 or pts[j] > pts[j - 1]]
         ts, X, Z = list(pts[keep]), list(xs[keep]), list(zs[keep])
+        since = self.events[-1].t if self.events else -np.inf   # not across a jump, reset or switch
         k = len(self.T) - 1
-        while len(ts) < HISTORY and k >= 0 and self.D[k] is self.dae:
+        while len(ts) < HISTORY and k >= 0 and self.D[k] is self.dae and self.T[k] >= since:
             if self.T[k] < ts[0]:
                 ts.insert(0, self.T[k]), X.insert(0, self.X[k]), Z.insert(0, self.Z[k])
             k -= 1
@@ -196,6 +198,8 @@ class ChangePoints:
             self.x, self.z = x1 + s * (x_b - x1), z1 + s * (z_b - z1)
             self._record(t)
         self.x, self.z = x_b.copy(), z_b.copy()
+        if np.any(grid == t_b):
+            self._record(t_b)                  # a landing on an output time: nothing after records it
 
 
 def _fold_time(ts, conds):

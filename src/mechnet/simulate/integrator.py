@@ -269,6 +269,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
     def _use(self, dae):
         plugin, extra, rtol, atol, max_steps = self.settings
         self.dae = dae
+        self._fold_floor = None                        # a new selection: no failed step over to remember
         self.integrators = _Integrators(self.cm, dae, plugin, extra, rtol, atol, max_steps, self.plan)
         self.xn = np.array(dae.x_nominal, dtype=float)
         self.zn = np.array(dae.z_nominal, dtype=float)
@@ -345,9 +346,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
 
     def _segment(self, points) -> bool:
         ok, message = self._attempt(points)
-        if not ok:
-            self._recover(points, message)
-        return ok
+        return ok or self._recover(points, message)
 
     def _attempt(self, points) -> tuple[bool, str]:
         """Integrate over `points` in one call; on success append the outputs and move the state."""
@@ -384,7 +383,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
         piece is cut, the states are re-chosen and the integrator restarts —
         re-initialised — there (a "reselection" event). Monitor density adapts
         so the running selection's quality moves by at most ~0.05 between points; a piece
-        covers a twentieth of the run, so restarts stay few.
+        covers at most a fifth of the run, so restarts stay few.
         """
         n_int = grid.size - 1
         longest = max(1, n_int // 5)
@@ -407,7 +406,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 pts.extend(np.linspace(a, b, density + 1)[1:])
                 is_output.extend([False] * (density - 1) + [b == grid[k + 1] or b in grid_set])
             pts = np.array(pts)
-            ok, message, xs, zs = self._dense(pts)
+            ok, message, xs, zs = self._dense(pts, budgeted=per_piece > 1 or fraction < 1)
             t_next = self._step_over_from(t_cur, grid) if not ok else None
             if t_next is not None:                    # failed at a change point: shorter pieces cannot help
                 t_cur, per_piece, fraction = t_next, 1, 1.0
@@ -421,8 +420,10 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 density = min(256, density * 2)
                 continue
             if not ok:
-                self._recover(np.concatenate([[t_cur], grid[k + 1: k_end + 1]]), message)
-                t_next = self._pass_change_point(grid)
+                if self._recover(np.concatenate([[t_cur], grid[k + 1: k_end + 1]]), message):
+                    t_next = self.T[-1]                # integrated after all (one output interval at a time)
+                else:
+                    t_next = self._pass_change_point(grid)
                 if t_next is None:
                     return
                 t_cur, per_piece, fraction = t_next, 1, 1.0
@@ -430,6 +431,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 continue
             self.refine_at = None
             ratios, switch_at = self._ratios(pts, xs, zs)
+            self._last_conditioning = None
             found = self._first_fold(pts, xs, zs) if self.refine_at is None else None
             fold, conds = found if found is not None else (None, None)
             before = [j for j in range(fold) if pts[j] < pts[fold]] if fold is not None else []
@@ -441,7 +443,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
                         self._record(pts[m])
                 self.x, self.z = xs[fold].copy(), zs[fold].copy()
                 ts, xh, zh = self._history(pts[: fold + 1], xs[: fold + 1], zs[: fold + 1])
-                t_b = self._step_over(grid, grid[-1], ts, xh, zh, self._conditioning(ts, xh, zh), 0.0)
+                t_b = self._step_over(grid, grid[-1], ts, xh, zh, self._conditioning(ts, xh, zh))
                 if t_b is None:                       # not passed from here: look again only much closer
                     self._fold_floor = conds[fold] / 10
                 t_cur, per_piece, fraction = (t_b if t_b is not None else pts[fold]), 1, 1.0
@@ -495,7 +497,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
                         horizon = (ratios[stop] - switch_level) / -slope
                         per_piece = int(min(per_piece, max(1, horizon // (grid[1] - grid[0]))))
                 ahead = self._fold_ahead(pts[: stop + 1])
-                if ahead is not None:
+                if ahead is not None and ahead > t_cur:
                     # a change point ahead: end the next piece half-way to it (an integrator running
                     # into the rank loss crawls to its step limit before it fails)
                     reach = 0.5 * (ahead - t_cur)
@@ -515,11 +517,12 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 per_check = 2.0 if self.dae.zero_labels else SOLVER_STEPS_PER_CHECK
                 density = int(min(1024, max(density, np.ceil((grid[1] - grid[0]) / (per_check * h_solver)))))
 
-    def _dense(self, pts):
-        """One integrator call over pts (unrecorded); returns the states at every point."""
+    def _dense(self, pts, budgeted=False):
+        """One integrator call over pts (unrecorded); returns the states at every point. `budgeted`:
+        with the step limit of `_step_budget`."""
         t0, h = pts[0], pts[-1] - pts[0]
         tau = tuple(float(v) for v in np.round((pts[1:] - t0) / h, 12))   # 12 digits: grid round-off shares keys
-        F = self.integrators.get(tau, self._step_budget(h))
+        F = self.integrators.get(tau, self._step_budget(float(np.max(np.diff(pts)))) if budgeted else None)
         try:
             out = _call(F, self.x / self.xn, self.z / self.zn if self.zn.size else np.zeros(0), self.pvec(t0, h))
         except RuntimeError as exc:
@@ -536,15 +539,17 @@ class _Run(StateEvents, Reselection, ChangePoints):
             else np.zeros((xf.shape[0], 0))
         return True, "", np.vstack([self.x, xf]), np.vstack([self.z.reshape(1, -1), zf])
 
-    def _step_budget(self, h):
-        """Step limit of a monitored piece of length h: 8× the steps the run has needed per second so
-        far (at least 1024, a power of two, at most max_steps). A piece that runs into a change point
-        the monitor did not foresee then fails after a few thousand steps, not after max_steps
-        (0.7 s each on the parallelogram), and is retried shorter."""
+    def _step_budget(self, gap):
+        """Step limit of a monitored piece whose monitor points lie at most `gap` apart (SUNDIALS counts
+        steps per output time): 8× the steps the run has needed per second so far over that gap (at
+        least 1024, a power of two, below max_steps). A long piece that runs into a change point the
+        monitor did not foresee then fails after about a thousand steps per monitor interval instead
+        of crawling to max_steps (0.7 s each on the parallelogram); it is retried shorter, and a piece
+        of one output interval runs without the limit."""
         steps, t_done = self.stats["nsteps"], (self.T[-1] - self.T[0]) if len(self.T) > 1 else 0.0
         if steps < 100 or t_done <= 0:
             return None
-        budget = 2 ** int(np.ceil(np.log2(max(1024.0, 8.0 * steps / t_done * h))))
+        budget = 2 ** int(np.ceil(np.log2(max(1024.0, 8.0 * steps / t_done * gap))))
         return budget if budget < self.settings[4] else None
 
     def _restart_at(self, t, cause):
@@ -560,7 +565,8 @@ class _Run(StateEvents, Reselection, ChangePoints):
         The failing segment is retried in halves (a successful piece keeps its
         length), so restarts stay O(log n); the failing output interval is then
         split in eight, three times over: the result ends within 1/512 of an
-        output interval of the failure.
+        output interval of the failure. True when every piece integrated after all (the
+        failed call had a step budget, or several output intervals at once).
         """
         solver = _solver_message(message)
         n = points.size - 1
@@ -583,6 +589,8 @@ class _Run(StateEvents, Reselection, ChangePoints):
             if b - a == 1:
                 break
             chunk = max(1, (b - a) // 2)
+        if a == n:
+            return True                                # every piece integrated: no failure after all
         t_fail = points[min(a + 1, n)]
         if a < n:
             lo, hi = points[a], points[a + 1]
@@ -605,6 +613,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
             f"worst variable: {worst}; solver: {solver}. The result holds the solution up to t = {t_good:.6g} s",
             t=float(t_good), step=step, worst=worst, solver_message=solver)
         self.stats["failed_at"] = float(t_good)
+        return False
 
 
 def _observe(dae, T, X, Z, plan, p, d) -> np.ndarray:
