@@ -32,17 +32,21 @@ HISTORY = 4               # recorded points used to estimate where the rank is l
 class ChangePoints:
     """Mixin of the simulation loop (`integrator._Run`): pass a change point after a failure."""
 
-    def _conditioning(self, ts, xs, zs):
-        """σ_min/σ_max of the algebraic block ∂alg/∂z (rows scaled to unit norm) at each point. The
-        selection quality cannot see a change point: it scales each constraint row by its norm, and at
-        a fold a whole row vanishes."""
+    def _conditioning(self, ts, xs, zs, unit_rows=True):
+        """σ_min/σ_max of the algebraic block ∂alg/∂z at each point, columns per unit of each variable's
+        nominal and rows scaled to unit norm. The selection quality cannot see a change point: it
+        scales each constraint row by its norm, and at a fold a whole row vanishes. The row-scaled
+        ratio can miss the same thing (a parallelogram's closure along its flat line when the
+        rocker-coupler angle is the state): `unit_rows=False` keeps the rows as they are, for the
+        check after a failure."""
         n, nz = len(ts), self.dae.z.numel()
         f = self._alg_jacobian_function().map(n)
         U = np.column_stack([self._u_at(t) for t in ts])
         J = np.asarray(f(np.reshape(ts, (1, -1)), np.asarray(xs).T, np.asarray(zs).T, U,
                          np.tile(self.p.reshape(-1, 1), n), np.tile(self.d.reshape(-1, 1), n)), dtype=float)
         J = J.reshape(nz, n, nz).transpose(1, 0, 2) * self.zn          # per unit of each variable's nominal
-        J = J / np.maximum(np.linalg.norm(J, axis=2, keepdims=True), 1e-300)
+        if unit_rows:
+            J = J / np.maximum(np.linalg.norm(J, axis=2, keepdims=True), 1e-300)
         s = np.linalg.svd(J, compute_uv=False)
         return s[:, -1] / np.maximum(s[:, 0], 1e-300)
 
@@ -64,10 +68,7 @@ class ChangePoints:
         ts, xs, zs = self._history(np.array(self.T[-1:]), np.array(self.X[-1:]), np.array(self.Z[-1:]))
         if self.D[-1] is not self.dae or len(ts) < 2:
             return None
-        conds = self._conditioning(ts, xs, zs)
-        if conds[-1] >= RANK_LOSS:
-            return None
-        t_b = self._step_over(grid, limit, ts, xs, zs, conds)
+        t_b = self._step_over_losing_rank(grid, limit, ts, xs, zs)
         if t_b is not None:
             self.failure = None
             self.stats.pop("failed_at", None)
@@ -81,10 +82,19 @@ class ChangePoints:
         ts, xs, zs = self._history(np.array([t]), self.x.reshape(1, -1), self.z.reshape(1, -1))
         if len(ts) < 2:
             return None
+        return self._step_over_losing_rank(grid, grid[-1], ts, xs, zs)
+
+    def _step_over_losing_rank(self, grid, limit, ts, xs, zs):
+        """After a failure: step over when the algebraic block is losing rank at the end of the history
+        (ts, xs, zs) and still falling — row-scaled below RANK_LOSS, or with rows as they are, down
+        tenfold over the history (a vanishing row); the new time or None."""
         conds = self._conditioning(ts, xs, zs)
-        if conds[-1] >= RANK_LOSS or conds[-1] >= conds[-2]:
-            return None
-        return self._step_over(grid, grid[-1], ts, xs, zs, conds)
+        if conds[-1] < RANK_LOSS and conds[-1] < conds[-2]:
+            return self._step_over(grid, limit, ts, xs, zs, conds)
+        plain = self._conditioning(ts, xs, zs, unit_rows=False)
+        if len(ts) >= 3 and plain[-1] < 0.1 * plain[0] and np.all(np.diff(plain) < 0):
+            return self._step_over(grid, limit, ts, xs, zs, plain, unit_rows=False)
+        return None
 
     def _first_fold(self, pts, xs, zs):
         """(index, conditioning at every point) of the first monitor point after the start where the
@@ -112,7 +122,7 @@ class ChangePoints:
         keep = [j for j in range(len(pts)) if j == 0 or pts[j] > pts[j - 1]]
         return _fold_time(np.asarray(pts)[keep], cond[: len(pts)][keep])
 
-    def _step_over(self, grid, limit, ts, xs, zs, conds):
+    def _step_over(self, grid, limit, ts, xs, zs, conds, unit_rows=True):
         """Jump from the last of the points (ts, xs, zs) (increasing times, conditioning `conds`) past
         the change point ahead; the new time or None.
 
@@ -157,10 +167,10 @@ class ChangePoints:
                     continue                                       # Newton went to the other branch
                 t_c = t_b + 0.05 * dt
                 x_c, _, z_c = landing(t_c)
-                c_b, c_c = self._conditioning([t_b, t_c], [x_b, x_c], [z_b, z_c])
+                c_b, c_c = self._conditioning([t_b, t_c], [x_b, x_c], [z_b, z_c], unit_rows)
             except MechnetError:
                 continue
-            if c_c <= c_b or c_b < 0.1 * max(conds[-1], RANK_LOSS):
+            if c_c <= c_b or c_b < 0.1 * (max(conds[-1], RANK_LOSS) if unit_rows else conds[-1]):
                 continue                    # not past the point yet, or too near it for the integrator
             self._bridge(grid, t1, x1, z1, t_b, x_b, z_b)
             where = f"estimated at t = {t_star:.9g} s; " if t_star is not None else ""
