@@ -56,14 +56,15 @@ class IndexReport:
     def summary(self) -> str:
         if not self.differentiated:
             return "reduce: no constraint among states, nothing differentiated"
-        return (f"reduce: structural index {self.index}; differentiated {grouped_differentiations(self.differentiated)}; "
-                f"dummy derivatives {', '.join(self.dummies)}")
+        diffs = grouped_differentiations(self.differentiated)
+        return f"reduce: structural index {self.index}; differentiated {diffs}; dummy derivatives {', '.join(self.dummies)}"
 
 
 def grouped_differentiations(differentiated) -> str:
     """'label ×n' items, '; '-separated. A loop's consecutive closure residuals (labels sharing their
-    text up to ', closure residual') are listed once, without their common description: 'pin_c (Revolute), loop 1 (...): closure residual
-    position x (frame_a axes) ×2, closure residual position y (frame_a axes) ×2'."""
+    text up to ', closure residual') are listed once, without their common description:
+    'pin_c (Revolute), loop 1 (...): closure residual position x (frame_a axes) ×2, closure residual
+    position y (frame_a axes) ×2'."""
     groups: list = []                  # (shared head, [(item, original label, n)])
     for label, n in differentiated:
         head, _, item = label.split(" — ")[0].rpartition(", closure residual ")

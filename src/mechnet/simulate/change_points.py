@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import casadi as ca
 import numpy as np
+from scipy.interpolate import BarycentricInterpolator, CubicHermiteSpline
 
 from ..core.errors import MechnetError
 from .events import Event
@@ -127,9 +128,9 @@ class ChangePoints:
         the change point ahead; the new time or None.
 
         The first try goes as far past the estimated point as the start was before it; then tries
-        double from the last step before the start, up to MAX_GROWTH steps or two output intervals. States follow the cubic through the last two points' values and rates (error
-        O(Δt⁴) over the jump); algebraic variables are re-solved from the quadratic through the last
-        three points. A landing is kept when Newton stayed on that branch (the other branch lies
+        double from the last step before the start, up to MAX_GROWTH steps or two output intervals.
+        States follow the cubic through the last two points' values and rates (error O(Δt⁴) over the
+        jump); algebraic variables are re-solved from the quadratic through the last three points. A landing is kept when Newton stayed on that branch (the other branch lies
         O(Δt) away, the prediction O(Δt²)) and the conditioning rises there: the point lies behind."""
         t1, x1, z1 = ts[-1], xs[-1], zs[-1]
         h = t1 - ts[-2]
@@ -150,8 +151,8 @@ class ChangePoints:
                  for t, x, z in zip(ts[-2:], xs[-2:], zs[-2:])]
 
         def landing(t_b):
-            x_b = _hermite(ts[-2], xs[-2], rates[0], t1, x1, rates[1], t_b)
-            z_pred = _lagrange(ts[-3:], zs[-3:], t_b)
+            x_b = CubicHermiteSpline(ts[-2:], xs[-2:], np.array(rates), axis=0)(t_b)
+            z_pred = BarycentricInterpolator(ts[-3:], zs[-3:], axis=0)(t_b)
             return x_b, z_pred, solve_algebraic(self.dae, t_b, x_b, z_pred, self._u_at(t_b), self.p, self.d)
 
         for dt in tries:
@@ -224,23 +225,3 @@ def _fold_time(ts, conds):
     if w[1] < w[0]:
         return float(mid[1] + w[1] * (mid[1] - mid[0]) / (w[0] - w[1]))
     return float(mid[1] + w[1])            # not yet in the power law: k = 1, a short step
-
-
-def _hermite(t0, x0, v0, t1, x1, v1, t):
-    """The cubic through (t0, x0) and (t1, x1) with slopes v0, v1, at t."""
-    h = t1 - t0
-    s = (t - t0) / h
-    h00, h10, h01, h11 = 2 * s ** 3 - 3 * s ** 2 + 1, s ** 3 - 2 * s ** 2 + s, -2 * s ** 3 + 3 * s ** 2, s ** 3 - s ** 2
-    return h00 * x0 + h10 * h * v0 + h01 * x1 + h11 * h * v1
-
-
-def _lagrange(ts, values, t):
-    """The polynomial through the points (ts, values), at t (a line through two points)."""
-    out = np.zeros_like(values[-1], dtype=float)
-    for i, ti in enumerate(ts):
-        w = 1.0
-        for j, tj in enumerate(ts):
-            if j != i:
-                w *= (t - tj) / (ti - tj)
-        out = out + w * values[i]
-    return out
