@@ -20,6 +20,7 @@ import casadi as ca
 import numpy as np
 
 from ..core.errors import StructureError
+from ..numeric import mapped
 from .artifacts import FlatEquation, FlatSystem, FlatVariable
 
 _DUMMY_PREFERENCE = {"never": 0, "avoid": 1, "default": 2, "prefer": 3, "always": 4}
@@ -280,13 +281,22 @@ class SelectionFactory:
         self._jacobians = {}
 
     def jacobian(self, rows: tuple, cols: tuple, values, params=None) -> np.ndarray:
+        pvals = self._pvals if params is None else params
+        return np.asarray(self._jacobian_function(rows, cols)(values, 0.0, pvals), dtype=float)
+
+    def _jacobian_function(self, rows: tuple, cols: tuple, n: int | None = None) -> ca.Function:
+        """∂(rows)/∂(cols) as a Function of (all variables, time, parameters); mapped over n points when
+        n is given. Built once per block (and n)."""
         key = (rows, cols)
         if key not in self._jacobians:
             residuals = self.flat.expand([self.equations[e].residual for e in rows])
             jac = ca.jacobian(ca.vertcat(*residuals), ca.vertcat(*[self.symbols[v] for v in cols]))
             self._jacobians[key] = ca.Function("dd_jacobian", list(self._args), [jac])
-        pvals = self._pvals if params is None else params
-        return np.asarray(self._jacobians[key](values, 0.0, pvals), dtype=float)
+        if n is None:
+            return self._jacobians[key]
+        if (key, n) not in self._jacobians:
+            self._jacobians[(key, n)] = mapped(self._jacobians[key], n)
+        return self._jacobians[(key, n)]
 
     def quality_batch(self, levels, values_matrix: np.ndarray, params=None) -> np.ndarray:
         """Signed `quality` at many points at once (rows of values_matrix), with one mapped evaluation."""
@@ -295,9 +305,8 @@ class SelectionFactory:
         pvals = np.asarray(self._pvals if params is None else params, dtype=float).reshape(-1, 1)
         for level in levels:
             rows, cols = tuple(level.equations), tuple(level.candidates)
-            self.jacobian(rows, cols, values_matrix[0], params)            # builds and caches the Function
-            f = self._jacobians[(rows, cols)].map(n)
-            J = np.asarray(f(values_matrix.T, np.zeros((1, n)), np.tile(pvals, n)), dtype=float)
+            f = self._jacobian_function(rows, cols, n)
+            J = f(values_matrix.T, np.zeros((1, n)), np.tile(pvals, n))[0]
             J = J.reshape(len(rows), n, len(cols)).transpose(1, 0, 2)  # (point, row, candidate)
             norms = np.prod(np.linalg.norm(J, axis=2), axis=1)
             chosen = [level.candidates.index(v) for v in level.chosen]

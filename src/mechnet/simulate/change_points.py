@@ -21,6 +21,7 @@ from scipy.interpolate import BarycentricInterpolator, CubicHermiteSpline
 from ..core.errors import MechnetError
 from .events import Event
 from .initialize import solve_algebraic
+from ..numeric import mapped
 from .reselection import dae_arguments
 
 RANK_LOSS = 1e-4          # conditioning of the algebraic block below this: the constraints are losing rank
@@ -41,24 +42,26 @@ class ChangePoints:
         rocker-coupler angle is the state): `unit_rows=False` keeps the rows as they are, for the
         check after a failure."""
         n, nz = len(ts), self.dae.z.numel()
-        f = self._alg_jacobian_function().map(n)
+        f = self._alg_jacobian_function(n)
         U = np.column_stack([self._u_at(t) for t in ts])
-        J = np.asarray(f(np.reshape(ts, (1, -1)), np.asarray(xs).T, np.asarray(zs).T, U,
-                         np.tile(self.p.reshape(-1, 1), n), np.tile(self.d.reshape(-1, 1), n)), dtype=float)
+        J = f(np.reshape(ts, (1, -1)), np.asarray(xs).T, np.asarray(zs).T, U,
+              np.tile(self.p.reshape(-1, 1), n), np.tile(self.d.reshape(-1, 1), n))[0]
         J = J.reshape(nz, n, nz).transpose(1, 0, 2) * self.zn          # per unit of each variable's nominal
         if unit_rows:
             J = J / np.maximum(np.linalg.norm(J, axis=2, keepdims=True), 1e-300)
         s = np.linalg.svd(J, compute_uv=False)
         return s[:, -1] / np.maximum(s[:, 0], 1e-300)
 
-    def _alg_jacobian_function(self):
-        """∂alg/∂z of the running compiled selection (cached per selection)."""
-        dae = self.dae
-        cache = self.__dict__.setdefault("_alg_jacobians", {})
-        if id(dae) not in cache:
-            args = dae_arguments(dae)
-            cache[id(dae)] = ca.Function("alg_z", args, [ca.jacobian(dae.alg(*args), args[2])])
-        return cache[id(dae)]
+    def _alg_jacobian_function(self, n):
+        """∂alg/∂z of the running compiled selection, mapped over n points (cached per selection, across
+        runs)."""
+        cache = self.dae.info.setdefault("_alg_jacobians", {})
+        if n not in cache:
+            if "single" not in cache:
+                args = dae_arguments(self.dae)
+                cache["single"] = ca.Function("alg_z", args, [ca.jacobian(self.dae.alg(*args), args[2])])
+            cache[n] = mapped(cache["single"], n)
+        return cache[n]
 
     def _pass_change_point(self, grid, limit=None):
         """After a failure: step over a change point and return the new time, or None (a real failure).

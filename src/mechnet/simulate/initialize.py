@@ -74,7 +74,7 @@ def _newton(residual: ca.Function, w0: np.ndarray, max_iter: int = 50):
 def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess: dict,
                steady_state: bool = False) -> InitialPoint:
     nx_, nz = dae.x.numel(), dae.z.numel()
-    y = dae.observed(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d)
+    y = _symbolic_observed(dae)
     row = {n: k for k, n in enumerate(dae.observed_names)}
     w = ca.vertcat(dae.x, dae.z)
     subs_from = ca.vertcat(dae.t, dae.u, dae.p)
@@ -177,6 +177,14 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
     fixed = [c[0] for c in conditions[: len(conditions) - len(free)]]
     return InitialPoint(sol[:nx_], sol[nx_:], fixed, [names_w[j] for j in free],
                         float(np.max(np.abs(r))) if r.size else 0.0)
+
+
+def _symbolic_observed(dae):
+    """The observed expressions in the model's own symbols, built once per compiled model (a symbolic
+    call of the observed function costs as much as the rest of a short simulation)."""
+    if "_observed_symbolic" not in dae.info:
+        dae.info["_observed_symbolic"] = dae.observed(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d)
+    return dae.info["_observed_symbolic"]
 
 
 def _match(rows_pattern, n_cols) -> np.ndarray:

@@ -33,6 +33,7 @@ from .reselection import Reselection, SelectionMonitor
 from .state_events import StateEvents
 from .initialize import initialize, solve_algebraic
 from .inputs import plan_inputs
+from ..numeric import mapped
 from .result import Result, unknown_name
 
 METHODS = ("auto", "idas", "cvodes-bdf", "cvodes-adams")
@@ -625,9 +626,9 @@ def _observe(dae, T, X, Z, plan, p, d) -> np.ndarray:
         U[k] = np.interp(T, times, values)
     maps = dae.info.setdefault("_observed_maps", {})       # Function.map costs as much as evaluating
     if n not in maps:
-        maps[n] = dae.observed.map(n)
-    y = maps[n](T.reshape(1, -1), X.T, Z.T, U, np.tile(p.reshape(-1, 1), n), np.tile(d.reshape(-1, 1), n))
-    return np.asarray(y).T
+        maps[n] = mapped(dae.observed, n)
+    y, = maps[n](T.reshape(1, -1), X.T, Z.T, U, np.tile(p.reshape(-1, 1), n), np.tile(d.reshape(-1, 1), n))
+    return y.T
 
 
 def _solver_message(text: str) -> str:

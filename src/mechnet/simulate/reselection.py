@@ -17,6 +17,7 @@ import numpy as np
 from ..core.errors import MechnetError
 from .events import Event
 from .initialize import solve_algebraic
+from ..numeric import mapped
 
 
 class Reselection:
@@ -33,9 +34,9 @@ class Reselection:
         # best choice (a pivoted QR per point) only where a switch is possible (quality below 1/2)
         monitor = self.monitor
         values = np.zeros((n, len(monitor.names)))
-        values[:, monitor.factory.watched_indices()] = np.asarray(
-            monitor.watched(self.dae, n)(pts.reshape(1, -1), xs.T, zs.T, U, np.tile(self.p.reshape(-1, 1), n),
-                                         np.tile(self.d.reshape(-1, 1), n))).T
+        values[:, monitor.factory.watched_indices()] = monitor.watched(self.dae, n)(
+            pts.reshape(1, -1), xs.T, zs.T, U, np.tile(self.p.reshape(-1, 1), n),
+            np.tile(self.d.reshape(-1, 1), n))[0].T
         levels = monitor.factory.levels_for(monitor.current)
         signed = monitor.factory.quality_batch(levels, values, self.p)
         ratios, signs = np.abs(signed), np.sign(signed)
@@ -124,16 +125,18 @@ class SelectionMonitor:
     def watched(self, dae, n):
         """The variables the selection depends on (`factory.watched_indices()`), at n points in one call.
         Only these are evaluated, not every observed name; cached per compiled selection and n."""
-        cache = self.__dict__.setdefault("_watched", {})
-        key = (id(dae), n)
+        cache = dae.info.setdefault("_watched", {})        # per compiled selection, across runs
+        key = n
         if key not in cache:
-            args = dae_arguments(dae)
-            y = dae.observed(*args)
-            position = {name: k for k, name in enumerate(dae.observed_names)}
-            out = ca.vertcat(*[y[position[self.names[k]]] if self.names[k] in position else ca.SX(0)
-                               for k in self.factory.watched_indices()])
-            single = cache.setdefault((id(dae), "single"), ca.Function("watched", args, [out]))
-            cache[key] = single.map(n)
+            single = "single"
+            if single not in cache:
+                args = dae_arguments(dae)
+                y = dae.observed(*args)
+                position = {name: k for k, name in enumerate(dae.observed_names)}
+                out = ca.vertcat(*[y[position[self.names[k]]] if self.names[k] in position else ca.SX(0)
+                                   for k in self.factory.watched_indices()])
+                cache[single] = ca.Function("watched", args, [out])
+            cache[key] = mapped(cache[single], n)
         return cache[key]
 
     def better(self, observed_values, probe=False, params=None):
