@@ -41,6 +41,7 @@ PROGRESS_CHUNKS = 20
 PROGRESS_MIN_POINTS = 1000
 PROGRESS_AFTER_SECONDS = 1.0
 SOLVER_STEPS_PER_CHECK = 16.0   # the state-selection monitor checks its quality about this often
+HORIZON_REACH = 2.0             # a piece aimed at a predicted switch reaches this many times as far
 PIECE_GROWTH = 4                # a monitored piece that needed no cut makes the next this many times longer
 
 
@@ -496,11 +497,14 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 if self.monitor is not None and stop >= 2:
                     # aim the next piece to end near the predicted switch: the quality falling to 0.9× the
                     # hysteresis share of the best choice's quality at the last full check (~0.45 when
-                    # the best is ideal; a loop's choices all sit lower)
+                    # the best is ideal; a loop's choices all sit lower). The straight line through the
+                    # last slope runs out early when the quality oscillates with the crank (a switch then
+                    # rarely comes): the piece reaches HORIZON_REACH times as far, so a wrong guess costs
+                    # at most that much integration past a switch, a too-short one a restart
                     slope = (ratios[stop] - ratios[stop - 1]) / max(pts[stop] - pts[stop - 1], 1e-300)
                     switch_level = 0.9 * self.monitor.HYSTERESIS * self.monitor.last_best
                     if slope < 0 and ratios[stop] > switch_level:
-                        horizon = (ratios[stop] - switch_level) / -slope
+                        horizon = HORIZON_REACH * (ratios[stop] - switch_level) / -slope
                         per_piece = int(min(per_piece, max(1, horizon // (grid[1] - grid[0]))))
                 ahead = self._fold_ahead(pts[: stop + 1])
                 if ahead is not None and ahead > t_cur:
