@@ -42,6 +42,8 @@ class FlatEquation:
     smoothness: float = float("inf")   # how often its signals may be differentiated
     regular: bool = False     # its coefficients on its unknowns never make it singular (a multibody pivot
                               # is an articulated inertia > 0), so emit may divide by them
+    pivot: str = ""           # the unknown it may be solved for by division, whatever the coefficient's
+                              # arguments (a joint acceleration: its coefficient is that inertia)
 
     def describe(self) -> str:
         return f"{self.label}" + (f" — {self.doc}" if self.doc else "")

@@ -29,6 +29,20 @@ def _fn(name, args, outputs, out_name):
     return ca.Function(name, list(args), [outputs], list(ARGS), [out_name], {"cse": True})
 
 
+def _pivot(name: str, variables, position: dict, aliases: AliasMap):
+    """The variable an equation may be divided for (FlatEquation.pivot), also when simplification
+    replaced it by an alias (c·v + k: its coefficient times c still cannot vanish); else None."""
+    if not name:
+        return None
+    expr = aliases.expressions.get(name)
+    if expr is None:
+        return next((i for i, v in enumerate(variables) if v.name == name), None)
+    syms = ca.symvar(ca.SX(expr))
+    if len(syms) != 1 or ca.depends_on(ca.jacobian(expr, syms[0]), syms[0]):
+        return None
+    return position.get(syms[0].element_hash())
+
+
 def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: StructureReport,
          options: EmitOptions = EmitOptions()) -> SemiExplicitDAE:
     variables = flat.variables
@@ -51,7 +65,9 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
             outside.update(i for i in (position.get(s.element_hash()) for s in ca.symvar(r)) if i in value)
         if options.tearing:
             guarded = any(flat.equations[e].order > 0 or flat.equations[e].regular for e in block)
-            sol = solve_block(residuals, block_vars, symbols, param_hashes, guarded)
+            pivots = {k: v for k, e in enumerate(block)
+                      if (v := _pivot(flat.equations[e].pivot, variables, position, aliases)) in block_vars}
+            sol = solve_block(residuals, block_vars, symbols, param_hashes, guarded, pivots)
         else:
             sol = BlockSolution([], list(block_vars), residuals, list(range(len(block))))
         # compose: the block's own chain first (local, small), then the values from earlier blocks

@@ -363,7 +363,8 @@ class _Tree:
             pre = ca.vertcat(Ap[:3], Ap[3:] + _cross(Ap[:3], d)) + self.velocity_terms(link)
             qdd = der(e.speed())
             _eq(tree, e, D[link] * qdd - (e.axis_load() - ca.dot(S, ca.mtimes(IA[link], pre) + P[link])),
-                "joint acceleration (articulated-body outward pass)", regular=link not in massless)
+                "joint acceleration (articulated-body outward pass)", regular=link not in massless,
+                pivot=qdd.name() if link not in massless and qdd.is_symbolic() else "")
             side = "frame_b" if self.joint[link][2] else "frame_a"
             self.A[link] = _defined(tree, e, [f"{e.path}.{side}.z_0[{i}]" for i in range(3)] +
                                     [f"{e.path}.{side}.a_0[{i}]" for i in range(3)], ["rad/s2"] * 3 + ["m/s2"] * 3,
@@ -555,9 +556,9 @@ def _new(tree, comp, names, units):
     return ca.vertcat(*syms)
 
 
-def _eq(tree, comp, residual, doc, regular=False):
+def _eq(tree, comp, residual, doc, regular=False, pivot=""):
     residual = ca.reshape(ca.SX(residual), -1, 1)
     label = f"{comp.path} ({type(comp).__name__}), tree equation"
     for i in range(residual.numel()):
         tree.equations.append(FlatEquation(residual[i], comp.path, label + (f"[{i}]" if residual.numel() > 1 else ""),
-                                           doc, regular=regular))
+                                           doc, regular=regular, pivot=pivot))

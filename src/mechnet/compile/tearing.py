@@ -5,8 +5,12 @@ variables are solved from their (linear) residuals and substituted back, so
 a large sparse block never becomes a dense symbolic solve.
 
 Within a block: an equation with one unknown left, linear in it with a
-coefficient that cannot vanish (a number or a function of parameters only),
-is solved explicitly; when none is left, the unknown that occurs in most
+coefficient that cannot vanish (a number or a function of parameters only, or
+the equation's pivot: a joint acceleration's articulated inertia), is solved
+explicitly. An unknown that no equation can be solved for must be torn, so
+those are torn first (a loop's cut wrench: given it, the tree's accelerations
+follow one by one, and a four-bar's acceleration block closes with two tears,
+not six). When no equation is left to solve, the unknown that occurs in most
 remaining equations becomes a tearing variable (Cellier's heuristic). What is
 left are residual equations in the tearing variables: the only algebraic
 part the integrator sees.
@@ -51,8 +55,16 @@ def compose(symbols_in_order: list, local: list, extra: list):
     return list(defs), list(ex)
 
 
+def _divide_for(residual: ca.SX, var: ca.SX, unknowns: ca.SX):
+    """var from a residual linear in it, dividing by a coefficient known never to vanish (a pivot)."""
+    coef = ca.jacobian(residual, var)
+    if ca.depends_on(coef, unknowns):
+        return None
+    return -ca.substitute(residual, var, ca.SX(0.0)) / coef
+
+
 def solve_block(residuals: list, variables: list, symbols: list, parameter_hashes: set,
-                guarded: bool = False) -> BlockSolution:
+                guarded: bool = False, pivots: dict | None = None) -> BlockSolution:
     """Solve a block's residuals for its variables (indices; symbols[i] their SX).
 
     Works on the *local* equations: variables solved earlier (inside or outside
@@ -63,9 +75,10 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
     differentiated constraints, whose regularity the dummy-derivative selection
     guarantees (and the simulator monitors), so a block linear in its unknowns
     is solved whatever its coefficients depend on (torn, then its tearing variables solved
-    symbolically).
+    symbolically). `pivots` maps a row to the unknown it may be divided for (FlatEquation.pivot).
     """
     n = len(variables)
+    pivots = pivots or {}
     vec = ca.vertcat(*[symbols[v] for v in variables])
     jac = ca.jacobian(ca.vertcat(*residuals), vec)
     constant_coefficients = all(s.element_hash() in parameter_hashes for s in ca.symvar(jac))
@@ -87,6 +100,21 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
     for k, vs in enumerate(holds):
         for v in vs:
             users[v].append(k)
+    explicit = {}                          # (equation, unknown) -> its explicit solution, or None
+
+    def solution(k, v):
+        if (k, v) not in explicit:
+            sol = solve_linear_for(residuals[k], symbols[v], parameter_hashes)
+            if sol is None and pivots.get(k) == v:
+                sol = _divide_for(residuals[k], symbols[v], vec)
+            explicit[(k, v)] = sol
+        return explicit[(k, v)]
+
+    # an unknown no equation can be solved for explicitly must be a tearing variable: tear those first
+    # (a loop's cut wrench, whose coefficients are rotations: given it, the tree's accelerations follow)
+    forced = [v for v in variables if not any(solution(k, v) is not None for k in users[v])]
+    tears.extend(forced)
+    remaining.difference_update(forced)
     open_eqs = set(range(n))
     queue = list(range(n))                 # equations to look at again (their unknowns may have gone)
     while open_eqs:
@@ -100,7 +128,7 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
                 rows.append(k)
                 open_eqs.discard(k)
             elif len(unk) == 1:
-                sol = solve_linear_for(residuals[k], symbols[unk[0]], parameter_hashes)
+                sol = solution(k, unk[0])
                 if sol is None:
                     continue
                 solved.append((unk[0], sol))

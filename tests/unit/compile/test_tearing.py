@@ -113,3 +113,37 @@ def test_the_torn_system_reproduces_the_full_solution(syms):
     # full system; solution values of scale 1: rtol 0, atol 1e-10
     for k, name in enumerate(("z1", "z2", "z3")):
         assert torn[at[name]] == pytest.approx(reference[k], rel=0, abs=1e-10), name
+
+
+def test_a_pivot_row_is_divided_for_its_pivot_only(syms):
+    """An articulated-body joint equation D(x)·a = rhs is solved for its acceleration whatever D depends
+    on (D > 0 is physics); the same coefficient on another unknown, or in another row, stays torn."""
+    at, s = syms
+    x, a = s[at["x"]], s[at["a"]]
+    residual = (2 + ca.sin(x)) * a - x
+    sol = solve_block([residual], [at["a"]], s, set(), pivots={0: at["a"]})
+    assert sol.tears == [] and sol.residuals == []
+    ((var, expr),) = sol.solved
+    # a = x / (2 + sin x); static, scale 0.5: rtol 1e-15, atol 0
+    assert evaluate([expr], [x], [1.2])[0] == pytest.approx(1.2 / (2 + np.sin(1.2)), rel=1e-15, abs=0)
+    assert solve_block([residual], [at["a"]], s, set()).tears == [at["a"]]              # not a pivot row
+    assert solve_block([residual], [at["a"]], s, set(), pivots={0: at["b"]}).tears == [at["a"]]
+
+
+def test_an_unknown_no_row_can_be_solved_for_is_torn_first(syms):
+    """A loop-like linear block: the 'cut force' f enters only through state-dependent coefficients
+    (rotations), so it must be torn; given f, z1 and z2 follow one by one and one residual closes the
+    block. Cellier's count alone tears z1 first (three rows) and then f as well: two tears."""
+    at, s = syms
+    x, f, z1, z2 = s[at["x"]], s[at["b"]], s[at["z1"]], s[at["z2"]]
+    block = [z1 - ca.cos(x) * f, z2 - z1 - x, z2 + z1 + ca.sin(x) * f - 1]
+    sol = solve_block(block, [at["z1"], at["z2"], at["b"]], s, set(), guarded=True)
+    assert sol.residuals == [] and sol.tears == []             # linear and guarded: closed symbolically
+    solved = dict(sol.solved)
+    # closed form: f (2 cos x + sin x) = 1 - x; static at x = 0.3, scale 1: rtol 1e-14, atol 1e-15
+    x0 = 0.3
+    f0 = (1 - x0) / (2 * np.cos(x0) + np.sin(x0))
+    got = evaluate([solved[at["b"]], solved[at["z1"]], solved[at["z2"]]], [x], [x0])
+    np.testing.assert_allclose(got, [f0, np.cos(x0) * f0, np.cos(x0) * f0 + x0], rtol=1e-14, atol=1e-15)
+    unguarded = solve_block(block, [at["z1"], at["z2"], at["b"]], s, set())
+    assert unguarded.tears == [at["b"]] and len(unguarded.residuals) == 1
