@@ -43,7 +43,7 @@ class ChangePoints:
         check after a failure."""
         n, nz = len(ts), self.dae.z.numel()
         f = self._alg_jacobian_function(n)
-        U = np.column_stack([self._u_at(t) for t in ts])
+        U = self._inputs_at(ts)
         J = f(np.reshape(ts, (1, -1)), np.asarray(xs).T, np.asarray(zs).T, U,
               np.tile(self.p.reshape(-1, 1), n), np.tile(self.d.reshape(-1, 1), n))[0]
         J = J.reshape(nz, n, nz).transpose(1, 0, 2) * self.zn          # per unit of each variable's nominal

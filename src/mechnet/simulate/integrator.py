@@ -347,6 +347,14 @@ class _Run(StateEvents, Reselection, ChangePoints):
             u[k] = float(np.interp(t, times, values))
         return u
 
+    def _inputs_at(self, ts):
+        """The inputs at each of the times ts, one column per time."""
+        ts = np.asarray(ts, dtype=float).ravel()
+        U = np.tile(self.plan.constant.reshape(-1, 1), ts.size)
+        for k, (times, values) in self.plan.varying.items():
+            U[k] = np.interp(ts, times, values)
+        return U
+
     def _segment(self, points) -> bool:
         ok, message = self._attempt(points)
         return ok or self._recover(points, message)

@@ -28,8 +28,7 @@ class Reselection:
         n = pts.size
         if self.monitor is None or not self.monitor.alternatives:
             return np.ones(n), None           # nothing to switch to (change points are watched apart)
-        U = np.column_stack([self._u_at(t) for t in pts]) if self.plan.varying else \
-            np.tile(self.plan.constant.reshape(-1, 1), n)
+        U = self._inputs_at(pts)
         # the running choice's quality at every point in one batch; the full comparison with the
         # best choice (a pivoted QR per point) only where a switch is possible (quality below 1/2)
         monitor = self.monitor

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.errors import IntegrationError
+from ..numeric import mapped
 from .events import Event
 from .initialize import solve_algebraic
 
@@ -122,11 +123,12 @@ class StateEvents:
         if not self.dae.zero_labels:
             return None
         n = pts.size if limit is None else limit + 1
-        U = np.column_stack([self._u_at(t) for t in pts[:n]]) if self.plan.varying else \
-            np.tile(self.plan.constant.reshape(-1, 1), n)
-        G = np.asarray(self.dae.zero.map(n)(pts[:n].reshape(1, -1), xs[:n].T, zs[:n].T, U,
-                                            np.tile(self.p.reshape(-1, 1), n),
-                                            np.tile(self.d.reshape(-1, 1), n))).T
+        U = self._inputs_at(pts[:n])
+        maps = self.dae.info.setdefault("_zero_maps", {})      # per compiled model and n, across runs
+        if n not in maps:
+            maps[n] = mapped(self.dae.zero, n)
+        G = maps[n](pts[:n].reshape(1, -1), xs[:n].T, zs[:n].T, U, np.tile(self.p.reshape(-1, 1), n),
+                    np.tile(self.d.reshape(-1, 1), n))[0].T
         dirs = np.array(self.dae.zero_directions)
         falling = (G[:-1] > 0) & (G[1:] <= 0) & (dirs <= 0)
         rising = (G[:-1] < 0) & (G[1:] >= 0) & (dirs >= 0)
