@@ -31,20 +31,19 @@ class InitialPoint:
     residual: float
 
 
-def _newton(residual: ca.Function, w0: np.ndarray, max_iter: int = 50):
-    """Damped Newton on residual(w) = 0 with a backtracking line search."""
+def _newton(residual: ca.Function, jacobian: ca.Function, w0: np.ndarray, args: tuple = (),
+            max_iter: int = 50):
+    """Damped Newton on residual(w, *args) = 0 with a backtracking line search."""
     from scipy.sparse import csc_matrix
     from scipy.sparse.linalg import spsolve
 
-    w = ca.SX.sym("w", w0.size)
-    jac = ca.Function("init_jacobian", [w], [ca.jacobian(residual(w), w)])
     w_val = w0.copy()
-    r = np.asarray(residual(w_val)).ravel()
+    r = np.asarray(residual(w_val, *args)).ravel()
     for _ in range(max_iter):
         norm = np.max(np.abs(r)) if r.size else 0.0
         if norm < _TOL * (1.0 + np.max(np.abs(w_val), initial=0.0)):
             break
-        J = jac(w_val)                         # sparse DM: solve sparse (a chain stays O(N))
+        J = jacobian(w_val, *args)             # sparse DM: solve sparse (a chain stays O(N))
         rows, cols = J.sparsity().get_triplet()
         A = csc_matrix((np.asarray(J.nonzeros(), dtype=float), (rows, cols)), shape=J.shape)
         step = None
@@ -63,7 +62,7 @@ def _newton(residual: ca.Function, w0: np.ndarray, max_iter: int = 50):
         lam = 1.0
         while lam > 1e-6:
             trial = w_val + lam * step
-            rt = np.asarray(residual(trial)).ravel()
+            rt = np.asarray(residual(trial, *args)).ravel()
             if np.all(np.isfinite(rt)) and np.max(np.abs(rt)) < (1 - 1e-4 * lam) * norm:
                 break
             lam *= 0.5
@@ -71,41 +70,49 @@ def _newton(residual: ca.Function, w0: np.ndarray, max_iter: int = 50):
     return w_val, r
 
 
+def _residual_pair(name: str, w: ca.SX, args: list, expr: ca.SX) -> tuple:
+    """Residual and its Jacobian in w as Functions of (w, *args)."""
+    return (ca.Function(name, [w, *args], [expr]),
+            ca.Function(name + "_jacobian", [w, *args], [ca.jacobian(expr, w)]))
+
+
+def _start_terms(dae, names: tuple):
+    """The start-value expressions in (x, z) with time, inputs and parameters left symbolic: their
+    dependence pattern, which are linear in one variable (k -> j), and a Function of (w, t, u, p)
+    giving their values and coefficients at w = 0. Built once per model and set of start names: the
+    symbolic work costs more than the rest of a short simulation."""
+    cache = dae.info.setdefault("_start_terms", {})
+    if names not in cache:
+        y = _symbolic_observed(dae)
+        row = {n: k for k, n in enumerate(dae.observed_names)}
+        w = ca.vertcat(dae.x, dae.z)
+        exprs = ca.vertcat(*[y[row[n]] for n in names]) if names else ca.SX(0, 1)
+        pattern = _pattern(exprs, w)
+        jac = ca.jacobian(exprs, w)
+        linear = {k: pattern[k][0] for k in range(len(names))
+                  if len(pattern[k]) == 1 and not ca.depends_on(jac[k, pattern[k][0]], w)}
+        at_zero = ca.Function("start_values_at_zero", [w, dae.t, dae.u, dae.p], [exprs, jac])
+        cache[names] = (exprs, pattern, linear, at_zero)
+    return cache[names]
+
+
 def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess: dict,
                steady_state: bool = False) -> InitialPoint:
     nx_, nz = dae.x.numel(), dae.z.numel()
-    y = _symbolic_observed(dae)
-    row = {n: k for k, n in enumerate(dae.observed_names)}
     w = ca.vertcat(dae.x, dae.z)
-    subs_from = ca.vertcat(dae.t, dae.u, dae.p)
-    subs_to = ca.vertcat(t0, u, p)
-
-    def numeric(expr):
-        return ca.substitute(expr, subs_from, subs_to)
+    args = (t0, u, p)
 
     # 1. fixed values: drop those that are constants of the model (checking them), dedupe equal ones
-    conditions = []            # (name, expr, value)
+    conditions = []            # (name, position among the start expressions or None for der(x), value)
     implied: dict[int, tuple[str, float]] = {}   # state/algebraic -> (name, value) for x_j = const conditions
-    names = list(start)
-    exprs = numeric(ca.vertcat(*[y[row[n]] for n in names])) if names else ca.SX(0, 1)
-    pattern = _pattern(exprs, w)
+    names = tuple(start)
+    _, pattern, linear, at_zero = _start_terms(dae, names)
     # every coefficient and every value at w = 0 in one evaluation (not one CasADi call per start value)
-    if names and w.numel():
-        jac = ca.jacobian(exprs, w)
-        at_zero = ca.Function("start_values_at_zero", [w], [exprs, jac])
-        offsets_dm, coefs_dm = at_zero(np.zeros(w.numel()))
-        offsets = np.asarray(offsets_dm, dtype=float).ravel()
-        coefs = coefs_dm
-        linear_cols = {k for k in range(len(names))
-                       if len(pattern[k]) == 1 and jac[k, pattern[k][0]].is_constant()}
-    else:
-        offsets = np.array([float(ca.evalf(exprs[k])) for k in range(len(names))])
-        coefs, linear_cols = None, set()
+    offsets_dm, coefs = at_zero(np.zeros(w.numel()), *args)
+    offsets = np.asarray(offsets_dm, dtype=float).ravel()
     for k, name in enumerate(names):
         value = start[name]
-        expr = exprs[k]
-        single = pattern[k]
-        if not single:
+        if not pattern[k]:
             const = float(offsets[k])
             if abs(const - value) > 1e-9 * max(1.0, abs(value)):
                 raise InitializationError(
@@ -113,8 +120,8 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
                     f"{const:g} (a fixed element, a prescribed motion or an input determines it); remove this "
                     f"start value")
             continue
-        if k in linear_cols:
-            j = single[0]
+        if k in linear:
+            j = linear[k]
             coef = float(coefs[k, j])
             if coef != 0.0:
                 val = (value - float(offsets[k])) / coef
@@ -126,13 +133,52 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
                             f"quantity (they are aliases through a connection), to {other_val:g} and {val:g}")
                     continue
                 implied[j] = (name, val)
-        conditions.append((name, expr, float(value)))
-    alg = numeric(dae.alg(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d))
+        conditions.append((name, k, float(value)))
     if steady_state:                  # der(x) = 0 for every state, in place of start values for them
-        ode = numeric(dae.ode(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d))
-        conditions.extend((f"der({n})", ode[k], 0.0) for k, n in enumerate(dae.x_names))
-    # 2. structure: conditions and algebraic equations against states and algebraics
-    rows_expr = [c[1] for c in conditions] + [alg[k] for k in range(nz)]
+        conditions.extend((f"der({n})", None, 0.0) for n in dae.x_names)
+    if w.numel() == 0:
+        return InitialPoint(np.zeros(0), np.zeros(0), [c[0] for c in conditions], [], 0.0)
+    # 2. structure (checked once per model, start names and kept conditions)
+    residual, jacobian = _initial_system(dae, names, tuple(c[1] for c in conditions), conditions)
+    # 3. guesses seed Newton; a fixed value is the best start for Newton too
+    names_w = list(dae.x_names) + list(dae.z_names)
+    w0 = np.array([float(guess.get(n, dae.guesses.get(n, 0.0))) for n in names_w])
+    for j, (_, val) in implied.items():
+        w0[j] = val
+    sol, r = _newton(residual, jacobian, w0, args + (np.array([c[2] for c in conditions]),))
+    tol = 1e-8 * (1.0 + np.max(np.abs(sol), initial=0.0))
+    if r.size and not (np.all(np.isfinite(r)) and np.max(np.abs(r)) < tol):
+        alg_labels = dae.info.get("alg_labels", ())
+        labels = [f"start value {c[0]} = {c[2]:g}" for c in conditions] + \
+                 [alg_labels[k] if k < len(alg_labels) else f"algebraic equation {k}" for k in range(nz)]
+        bad = np.flatnonzero(~(np.abs(r) < tol))
+        worst = max(bad, key=lambda k: (k >= len(conditions), abs(r[k]) if np.isfinite(r[k]) else np.inf))
+        fixed = ", ".join(f"{c[0]} = {c[2]:g}" for c in conditions) or "none"
+        raise InitializationError(f"consistent initialisation failed: no solution found for {labels[worst]} "
+                                  f"(residual {r[worst]:.3g}) with the fixed values {fixed}; "
+                                  f"check the start values and guesses")
+    return InitialPoint(sol[:nx_], sol[nx_:], [c[0] for c in conditions], [],
+                        float(np.max(np.abs(r))) if r.size else 0.0)
+
+
+def _initial_system(dae, names: tuple, kept: tuple, conditions: list):
+    """Residual and Jacobian Functions of (w, t, u, p, fixed values) of the initial system: the kept
+    start conditions (positions among the start expressions; None: der(x) = 0, one per state in
+    order) and the algebraic equations. Its structure is checked as it is built: a fixed value that
+    competes with another for the same quantity, or a state nothing fixes, is reported by name.
+    Cached per model, start names and kept conditions."""
+    cache = dae.info.setdefault("_initial_systems", {})
+    key = (names, kept)
+    if key in cache:
+        return cache[key]
+    nx_, nz = dae.x.numel(), dae.z.numel()
+    exprs = _start_terms(dae, names)[0]
+    w = ca.vertcat(dae.x, dae.z)
+    alg = dae.alg(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d)
+    ode = dae.ode(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d) if None in kept else None
+    states = iter(range(nx_))
+    rows = [exprs[k] if k is not None else ode[next(states)] for k in kept]
+    rows_expr = rows + [alg[k] for k in range(nz)]
     rows_pattern = _pattern(ca.vertcat(*rows_expr), w) if rows_expr else []
     row_of_w = _match(rows_pattern, nx_ + nz)
     matched_rows = {k for k in row_of_w if k >= 0}
@@ -151,32 +197,10 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
             f"too few fixed start values: nothing fixes the states {', '.join(names_w[j] for j in free)}; "
             f"give them start values (component arguments such as phi_start=, or simulate(start={{...}})), "
             f"or use simulate(steady_state=True)")
-    # 3. (kept for the Newton start) guesses
-    w0 = np.array([float(guess.get(n, dae.guesses.get(n, 0.0))) for n in names_w])
-    for j, (_, val) in implied.items():       # a fixed value is the best start for Newton too
-        w0[j] = val
-    for j in free:
-        rows_expr.append(w[j])
-        conditions.append((names_w[j], w[j], w0[j]))
-    res_expr = ca.vertcat(*[c[1] - c[2] for c in conditions], alg) if rows_expr else ca.SX(0, 1)
-    if w.numel() == 0:
-        return InitialPoint(np.zeros(0), np.zeros(0), [c[0] for c in conditions], [], 0.0)
-    residual = ca.Function("init_residual", [w], [res_expr])
-    sol, r = _newton(residual, w0)
-    tol = 1e-8 * (1.0 + np.max(np.abs(sol), initial=0.0))
-    if r.size and not (np.all(np.isfinite(r)) and np.max(np.abs(r)) < tol):
-        alg_labels = dae.info.get("alg_labels", ())
-        labels = [f"start value {c[0]} = {c[2]:g}" for c in conditions] + \
-                 [alg_labels[k] if k < len(alg_labels) else f"algebraic equation {k}" for k in range(nz)]
-        bad = np.flatnonzero(~(np.abs(r) < tol))
-        worst = max(bad, key=lambda k: (k >= len(conditions), abs(r[k]) if np.isfinite(r[k]) else np.inf))
-        fixed = ", ".join(f"{c[0]} = {c[2]:g}" for c in conditions) or "none"
-        raise InitializationError(f"consistent initialisation failed: no solution found for {labels[worst]} "
-                                  f"(residual {r[worst]:.3g}) with the fixed values {fixed}; "
-                                  f"check the start values and guesses")
-    fixed = [c[0] for c in conditions[: len(conditions) - len(free)]]
-    return InitialPoint(sol[:nx_], sol[nx_:], fixed, [names_w[j] for j in free],
-                        float(np.max(np.abs(r))) if r.size else 0.0)
+    fixed = ca.SX.sym("fixed", len(rows))
+    res_expr = ca.vertcat(ca.vertcat(*rows) - fixed, alg) if rows_expr else ca.SX(0, 1)
+    cache[key] = _residual_pair("init_residual", w, [dae.t, dae.u, dae.p, fixed], res_expr)
+    return cache[key]
 
 
 def _symbolic_observed(dae):
@@ -241,9 +265,11 @@ def solve_algebraic(dae, t: float, x: np.ndarray, z_guess: np.ndarray, u: np.nda
     """Algebraic variables consistent with the states at time t (after an event, or without states)."""
     if dae.z.numel() == 0:
         return np.zeros(0)
-    zs = ca.SX.sym("z", dae.z.numel())
-    residual = ca.Function("alg_at_t", [zs], [dae.alg(t, x, zs, u, p, d)])
-    z, r = _newton(residual, np.asarray(z_guess, dtype=float).copy())
+    if "_algebraic_newton" not in dae.info:             # built once per model: restarts are frequent
+        args = [dae.t, dae.x, dae.u, dae.p, dae.d]
+        dae.info["_algebraic_newton"] = _residual_pair("alg_at_t", dae.z, args, dae.alg(dae.t, dae.x, dae.z, *args[2:]))
+    residual, jacobian = dae.info["_algebraic_newton"]
+    z, r = _newton(residual, jacobian, np.asarray(z_guess, dtype=float).copy(), (t, x, u, p, d))
     if not np.all(np.isfinite(r)) or np.max(np.abs(r)) > 1e-8 * (1.0 + np.max(np.abs(z))):
         raise InitializationError(f"re-initialisation at t = {t:g} s failed: algebraic residual "
                                   f"{np.max(np.abs(r)):.3g} (variables {', '.join(dae.z_names[:5])})")
