@@ -20,7 +20,7 @@ import casadi as ca
 import numpy as np
 
 from ..core.errors import StructureError
-from ..numeric import mapped
+from ..numeric import NumpyCall, dense, mapped
 from .artifacts import FlatEquation, FlatSystem, FlatVariable
 
 _DUMMY_PREFERENCE = {"never": 0, "avoid": 1, "default": 2, "prefer": 3, "always": 4}
@@ -282,7 +282,7 @@ class SelectionFactory:
 
     def jacobian(self, rows: tuple, cols: tuple, values, params=None) -> np.ndarray:
         pvals = self._pvals if params is None else params
-        return np.asarray(self._jacobian_function(rows, cols)(values, 0.0, pvals), dtype=float)
+        return self._jacobian_function(rows, cols, 1)(values, 0.0, pvals)[0]
 
     def _jacobian_function(self, rows: tuple, cols: tuple, n: int | None = None) -> ca.Function:
         """∂(rows)/∂(cols) as a Function of (all variables, time, parameters); mapped over n points when
@@ -294,8 +294,9 @@ class SelectionFactory:
             self._jacobians[key] = ca.Function("dd_jacobian", list(self._args), [jac])
         if n is None:
             return self._jacobians[key]
-        if (key, n) not in self._jacobians:
-            self._jacobians[(key, n)] = mapped(self._jacobians[key], n)
+        if (key, n) not in self._jacobians:          # n = 1: one point, through numpy buffers all the same
+            self._jacobians[(key, n)] = mapped(self._jacobians[key], n) if n > 1 else \
+                NumpyCall(dense(self._jacobians[key]))
         return self._jacobians[(key, n)]
 
     def quality_batch(self, levels, values_matrix: np.ndarray, params=None) -> np.ndarray:

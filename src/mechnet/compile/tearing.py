@@ -112,7 +112,7 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
 
     # an unknown no equation can be solved for explicitly must be a tearing variable: tear those first
     # (a loop's cut wrench, whose coefficients are rotations: given it, the tree's accelerations follow)
-    forced = [v for v in variables if not any(solution(k, v) is not None for k in users[v])]
+    forced = sorted(v for v in variables if not any(solution(k, v) is not None for k in users[v]))
     tears.extend(forced)
     remaining.difference_update(forced)
     open_eqs = set(range(n))
