@@ -280,9 +280,15 @@ class SelectionFactory:
         self._args = (all_syms, flat.time, params)
         self._jacobians = {}
 
-    def jacobian(self, rows: tuple, cols: tuple, values, params=None) -> np.ndarray:
+    def jacobian(self, rows: tuple, cols: tuple, values, params=None, memo: dict | None = None) -> np.ndarray:
+        """∂(rows)/∂(cols) at one point; `memo` keeps those already evaluated at this point."""
+        if memo is not None and (rows, cols) in memo:
+            return memo[(rows, cols)]
         pvals = self._pvals if params is None else params
-        return self._jacobian_function(rows, cols, 1)(values, 0.0, pvals)[0]
+        J = self._jacobian_function(rows, cols, 1)(values, 0.0, pvals)[0]
+        if memo is not None:
+            memo[(rows, cols)] = J
+        return J
 
     def _jacobian_function(self, rows: tuple, cols: tuple, n: int | None = None) -> ca.Function:
         """∂(rows)/∂(cols) as a Function of (all variables, time, parameters); mapped over n points when
@@ -345,22 +351,24 @@ class SelectionFactory:
         return False
 
     def base_priority(self, v) -> int:
-        while v in self.graph.antider:
-            v = self.graph.antider[v]
-        return _DUMMY_PREFERENCE.get(self.variables[v].priority, 2)
+        cache = self.__dict__.setdefault("_priorities", {})
+        if v not in cache:
+            u = v
+            while u in self.graph.antider:
+                u = self.graph.antider[u]
+            cache[v] = _DUMMY_PREFERENCE.get(self.variables[u].priority, 2)
+        return cache[v]
 
-    def choose(self, values, params=None):
+    def choose(self, values, params=None, memo: dict | None = None):
         """Mattsson–Söderlind, highest level first; columns by state priority, then numerically."""
         graph, equations = self.graph, self.equations
-        top = [e for e in range(len(equations)) if e not in graph.diff]
-        h = [e for e in top if e in graph.parent]
-        candidates = [v for v in range(len(self.variables)) if graph.visible(v) and v in graph.antider]
+        h, candidates = self._top_level()
         dummies, levels = set(), []
         while h:
             cand = [v for v in candidates if any(v in graph.inc[e] for e in h)]
             if len(cand) < len(h):
                 raise StructureError(_no_selection(h, equations))
-            J = self.jacobian(tuple(h), tuple(cand), values, params)
+            J = self.jacobian(tuple(h), tuple(cand), values, params, memo)
             chosen = _pick_columns(J, cand, len(h), self.base_priority, self.options.rank_tolerance)
             if chosen is None:
                 raise StructureError(_no_selection(h, equations))
@@ -371,7 +379,7 @@ class SelectionFactory:
             candidates = [graph.antider[v] for v in chosen if graph.antider[v] in graph.antider]
         return frozenset(dummies), levels
 
-    def quality(self, levels, values, signed: bool = False, params=None) -> float:
+    def quality(self, levels, values, signed: bool = False, params=None, memo: dict | None = None) -> float:
         """|det| of the chosen columns over the Hadamard bound of all candidate rows: 1 ideal, 0 singular.
 
         `signed` keeps the sign of the determinant, so a pass through a singular
@@ -379,7 +387,7 @@ class SelectionFactory:
         """
         q = 1.0
         for level in levels:
-            J = self.jacobian(tuple(level.equations), tuple(level.candidates), values, params)
+            J = self.jacobian(tuple(level.equations), tuple(level.candidates), values, params, memo)
             rows = np.linalg.norm(J, axis=1)
             if np.any(rows == 0) or len(level.chosen) != J.shape[0]:
                 return 0.0
@@ -388,11 +396,25 @@ class SelectionFactory:
             q *= (det if signed else abs(det)) / float(np.prod(rows))
         return q
 
+    def _top_level(self):
+        """(equations, candidates) of the highest level: fixed by the reduced graph, found once (the
+        monitor asks at every check)."""
+        if not hasattr(self, "_top"):
+            graph = self.graph
+            self._top = ([e for e in range(len(self.equations)) if e not in graph.diff and e in graph.parent],
+                         [v for v in range(len(self.variables)) if graph.visible(v) and v in graph.antider])
+        return self._top
+
     def levels_for(self, dummies):
-        """The levels of a given dummy set, walked like `choose` but with the picks given."""
+        """The levels of a given dummy set, walked like `choose` but with the picks given (cached)."""
+        cache = self.__dict__.setdefault("_levels_for", {})
+        if dummies not in cache:
+            cache[dummies] = self._walk_levels(dummies)
+        return cache[dummies]
+
+    def _walk_levels(self, dummies):
         graph = self.graph
-        h = [e for e in range(len(self.equations)) if e not in graph.diff and e in graph.parent]
-        candidates = [v for v in range(len(self.variables)) if graph.visible(v) and v in graph.antider]
+        h, candidates = self._top_level()
         levels = []
         while h:
             cand = [v for v in candidates if any(v in graph.inc[e] for e in h)]
@@ -488,7 +510,7 @@ def _pick_columns(J, cand, m, priority, tol):
         A = J[:, cols]
         if Q.shape[1]:
             A = A - Q @ (Q.T @ A)
-        q, r, piv = qr(A, mode="economic", pivoting=True)
+        q, r, piv = qr(A, mode="economic", pivoting=True, check_finite=False)
         diag = np.abs(np.diag(r))
         take = min(int(np.sum(diag > tol * scale)), need)
         chosen.extend(cand[cols[piv[k]]] for k in range(take))

@@ -147,16 +147,18 @@ class SelectionMonitor:
         """(quality, switch): the running selection's quality in [0, 1] (1: ideal, 0: singular) and
         None, or — when another selection is better by the hysteresis factor — (dummies, compiled
         selection, cause); when probing, just True. `values` follow `names`."""
+        memo = {}                              # the Jacobians at this point, shared by the three steps
         try:
-            best, levels = self.factory.choose(values, params)
+            best, levels = self.factory.choose(values, params, memo)
         except MechnetError:
             return None, None
-        q_signed = self.factory.quality(self.factory.levels_for(self.current), values, signed=True, params=params)
+        q_signed = self.factory.quality(self.factory.levels_for(self.current), values, signed=True, params=params,
+                                        memo=memo)
         q_now = abs(q_signed)
         if best == self.current:
             self.last_best = q_now
             return q_signed, None
-        q_best = self.last_best = self.factory.quality(levels, values, params=params)
+        q_best = self.last_best = self.factory.quality(levels, values, params=params, memo=memo)
         if q_now >= self.HYSTERESIS * q_best:
             return q_signed, None
         if probe:
