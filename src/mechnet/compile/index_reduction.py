@@ -325,12 +325,17 @@ class SelectionFactory:
         return q
 
     def watched_indices(self) -> list:
-        """Variables the selection Jacobians can depend on (those in the differentiated constraints):
-        the monitor evaluates only these along a run."""
+        """Variables the selection Jacobians can depend on: those in the derivatives of the
+        differentiated constraints with respect to every possible candidate (a variable with an
+        antiderivative). The monitor evaluates only these along a run: for holonomic loops the
+        coordinates alone, not the speeds and accelerations the constraints also hold (which cost as
+        much to evaluate as the model's right-hand side)."""
         if not hasattr(self, "_watched"):
             rows = [e for e in range(len(self.equations)) if e in self.graph.parent or e in self.graph.diff]
             exprs = self.flat.expand([self.equations[e].residual for e in rows])
-            used = {s.element_hash() for r in exprs for s in ca.symvar(ca.SX(r))}
+            cols = [self.symbols[v] for v in range(len(self.variables)) if v in self.graph.antider]
+            jac = ca.jacobian(ca.vertcat(*exprs), ca.vertcat(*cols)) if exprs and cols else ca.SX(0, 1)
+            used = {s.element_hash() for s in ca.symvar(jac)}
             self._watched = [k for k, sym in enumerate(self.symbols) if sym.element_hash() in used]
         return self._watched
 
