@@ -41,8 +41,9 @@ PROGRESS_CHUNKS = 20
 PROGRESS_MIN_POINTS = 1000
 PROGRESS_AFTER_SECONDS = 1.0
 SOLVER_STEPS_PER_CHECK = 16.0   # the state-selection monitor checks its quality about this often
-HORIZON_REACH = 2.0             # a piece aimed at a predicted switch reaches this many times as far
-PIECE_GROWTH = 4                # a monitored piece that needed no cut makes the next this many times longer
+HORIZON_REACH = 2.0             # a piece aimed at a predicted switch reaches this many times as far,
+PIECE_GROWTH = 4                # and one that needed no cut makes the next this many times longer (both
+                                # while the run has had no switch, change point or state event)
 
 
 class IntegrationWarning(UserWarning):
@@ -393,10 +394,11 @@ class _Run(StateEvents, Reselection, ChangePoints):
         first point where a better selection wins by the hysteresis factor, the
         piece is cut, the states are re-chosen and the integrator restarts —
         re-initialised — there (a "reselection" event). Monitor density adapts
-        so the running selection's quality moves by at most ~0.05 between points. A piece
-        that needed no cut makes the next PIECE_GROWTH times longer, up to the rest of the
-        run: each restart costs IDAS ~30 ramp-up steps, so the benchmark's loops run in 5–8
-        calls (were 11–14 with doubling up to a fifth of the run).
+        so the running selection's quality moves by at most ~0.05 between points. While
+        nothing has happened, a piece that needed no cut makes the next PIECE_GROWTH times
+        longer, up to the rest of the run: each restart costs IDAS ~30 ramp-up steps, so the
+        benchmark's loops run in 5 calls (were 11–14). A failed piece is retried up to the
+        output time before where the solver gave up.
         """
         n_int = grid.size - 1
         longest = n_int
@@ -428,7 +430,11 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 k = int(np.searchsorted(grid, t_cur, side="right")) - 1
                 continue
             if not ok and per_piece > 1:
-                per_piece //= 2                       # maybe a switch was due inside: look closer
+                # maybe a switch was due inside: look closer, ending before where the solver gave up
+                # (its last time, from the failed call's statistics), or halve when that is unknown
+                reached = int(np.searchsorted(grid, self._failed_at, side="left")) - 1 - k \
+                    if self._failed_at is not None else 0
+                per_piece = max(1, reached) if 0 < reached < per_piece else per_piece // 2
                 continue
             if not ok and self.monitor is not None and fraction > 1e-3:
                 fraction /= 4                         # a switch due within this interval: take part of it
@@ -501,7 +507,15 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 # a switch cut the piece: what came after it was wasted, so aim shorter next time
                 per_piece = max(1, min(per_piece, int(np.ceil((stop / density) * 1.5))))
             else:
-                per_piece = min(longest, PIECE_GROWTH * per_piece)
+                # while nothing but time events has happened, pieces grow fast and far (a mechanism that
+                # never switches pays few restarts); once the run has switched, stepped over a change
+                # point or stopped at a state event, more will likely come: pieces grow by 2 up to a fifth
+                # of the run and aim at the straight-line horizon, so little is integrated past each
+                # (the Cartesian pendulum's 40 switches took 78 % more steps with fast growth)
+                quiet = all(e.kind == "time" for e in self.events)
+                reach = HORIZON_REACH if quiet else 1.0
+                per_piece = min(longest, PIECE_GROWTH * per_piece) if quiet else \
+                    min(max(1, n_int // 5), 2 * per_piece)
                 if self.monitor is not None and stop >= 2:
                     # aim the next piece to end near the predicted switch: the quality falling to 0.9× the
                     # hysteresis share of the best choice's quality at the last full check (~0.45 when
@@ -512,7 +526,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
                     slope = (ratios[stop] - ratios[stop - 1]) / max(pts[stop] - pts[stop - 1], 1e-300)
                     switch_level = 0.9 * self.monitor.HYSTERESIS * self.monitor.last_best
                     if slope < 0 and ratios[stop] > switch_level:
-                        horizon = HORIZON_REACH * (ratios[stop] - switch_level) / -slope
+                        horizon = reach * (ratios[stop] - switch_level) / -slope
                         per_piece = int(min(per_piece, max(1, horizon // (grid[1] - grid[0]))))
                 ahead = self._fold_ahead(pts[: stop + 1])
                 if ahead is not None and ahead > t_cur:
@@ -541,9 +555,12 @@ class _Run(StateEvents, Reselection, ChangePoints):
         t0, h = pts[0], pts[-1] - pts[0]
         tau = tuple(float(v) for v in np.round((pts[1:] - t0) / h, 12))   # 12 digits: grid round-off shares keys
         F = self.integrators.get(tau, self._step_budget(float(np.max(np.diff(pts)))) if budgeted else None)
+        self._failed_at = None
         try:
             out = _call(F, self.x / self.xn, self.z / self.zn if self.zn.size else np.zeros(0), self.pvec(t0, h))
         except RuntimeError as exc:
+            reached = F.stats().get("tcur", float("nan"))              # normalised time the solver got to
+            self._failed_at = t0 + reached * h if np.isfinite(reached) and 0 < reached < 1 else None
             return False, str(exc), None, None
         s = F.stats()
         for key in ("nsteps", "nfevals", "netfails"):
