@@ -26,11 +26,14 @@ class NumpyCall:
         self.buffer, self.trigger = f.buffer()
 
     def __call__(self, *args) -> list[np.ndarray]:
+        """Not thread-safe: one buffer per instance (cached instances are shared by a compiled model)."""
+        if len(args) != len(self.shape_in):
+            raise ValueError(f"{self.f.name()}: {len(args)} inputs given, expected {len(self.shape_in)}")
         keep = []
         for i, (arg, (rows, cols)) in enumerate(zip(args, self.shape_in)):
             a = np.asarray(arg, dtype=float)
-            if a.size != rows * cols:
-                raise ValueError(f"{self.f.name()}: input {i} has {a.size} values, expected {rows}×{cols}")
+            if a.shape not in ((rows, cols), (rows * cols,)) and not (a.size == rows * cols and cols == 1):
+                raise ValueError(f"{self.f.name()}: input {i} has shape {a.shape}, expected {rows}×{cols}")
             # CasADi stores column-major: the C-order transpose has the same memory layout
             a = np.ascontiguousarray(a.reshape(rows, cols).T) if cols > 1 else np.ascontiguousarray(a.ravel())
             keep.append(a)

@@ -107,3 +107,34 @@ def test_no_consistent_algebraic_values():
     text = str(info.value)
     assert "c.x = 1" in text, text
     assert "c (NoRealRoot), equation 1" in text, text
+
+
+class _Scaled(mn.Component):
+    """x'' = −x with an output y = k·x, k tunable: at k = 0 a start value on y fixes nothing."""
+    k = mn.Param(2.0)
+    x = mn.State(priority="default")
+    v = mn.State(priority="default")
+    y = mn.Var()
+
+    def equations(self):
+        return [mn.Eq(mn.der(self.x), self.v), mn.Eq(mn.der(self.v), -self.x), mn.Eq(self.y, self.k * self.x)]
+
+
+@pytest.fixture(scope="module")
+def scaled():
+    m = mn.Model("scaled")
+    m.add(_Scaled(name="s", k=mn.tunable(2.0)))
+    return m.compile()
+
+
+def test_start_value_whose_coefficient_a_parameter_makes_zero(scaled):
+    """Regression (review): the initial system's structure is cached symbolically, with k a symbol; at
+    k = 0, y = 0 whatever x, so y = 1 cannot hold and is reported as such (not as a failed Newton)."""
+    with pytest.raises(mn.InitializationError, match=r"start value s\.y = 1 cannot hold"):
+        scaled.simulate(0.1, n_out=3, start={"s.y": 1.0, "s.v": 0.0}, params={"s.k": 0.0})
+    # y = 0 agrees with k = 0; x then comes from its own start value (was "too many fixed start values")
+    res = scaled.simulate(0.1, n_out=3, start={"s.y": 0.0, "s.x": 0.4, "s.v": 0.0}, params={"s.k": 0.0})
+    assert res["s.x"][0] == pytest.approx(0.4, rel=1e-12, abs=0)
+    # and the cached structure still serves k ≠ 0: y = 1 → x = 1/k (static, rtol 1e-12)
+    res = scaled.simulate(0.1, n_out=3, start={"s.y": 1.0, "s.v": 0.0}, params={"s.k": 4.0})
+    assert res["s.x"][0] == pytest.approx(0.25, rel=1e-12, abs=0)

@@ -38,5 +38,11 @@ def test_sparse_outputs_and_wrong_sizes_are_refused():
     with pytest.raises(ValueError, match="dense"):
         NumpyCall(_sample())
     call = mapped(_sample(), 4)
-    with pytest.raises(ValueError, match="input 0 has 9 values, expected 3×4"):
+    with pytest.raises(ValueError, match=r"input 0 has shape \(3, 3\), expected 3×4"):
         call(np.zeros((3, 3)), np.zeros((2, 4)))
+
+
+def test_a_missing_input_is_refused_not_read_from_stale_memory():
+    call = mapped(_sample(), 2)
+    with pytest.raises(ValueError, match="1 inputs given, expected 2"):
+        call(np.zeros((3, 2)))

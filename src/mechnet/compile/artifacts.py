@@ -44,6 +44,8 @@ class FlatEquation:
                               # is an articulated inertia > 0), so emit may divide by them
     pivot: str = ""           # the unknown it may be solved for by division, whatever the coefficient's
                               # arguments (a joint acceleration: its coefficient is that inertia)
+    pivot_unless: tuple = ()  # unless simplification made the pivot one of these (the parent link's
+                              # accelerations, which the row also holds: the coefficient would mix)
 
     def describe(self) -> str:
         return f"{self.label}" + (f" — {self.doc}" if self.doc else "")

@@ -29,14 +29,24 @@ def _fn(name, args, outputs, out_name):
     return ca.Function(name, list(args), [outputs], list(ARGS), [out_name], {"cse": True})
 
 
-def _pivot(name: str, variables, position: dict, aliases: AliasMap):
+def _pivot(equation, position: dict, aliases: AliasMap, name_index: dict):
     """The variable an equation may be divided for (FlatEquation.pivot), also when simplification
-    replaced it by an alias (c·v + k: its coefficient times c still cannot vanish); else None."""
-    if not name:
+    replaced it by an alias (c·v + k: its coefficient times c still cannot vanish); None when there is
+    none, or when the pivot became one of the variables in `pivot_unless` (then the row holds v twice
+    and its coefficient on v is no longer the pivot's)."""
+    if not equation.pivot:
         return None
+    resolved = [_resolve(n, position, aliases, name_index) for n in (equation.pivot, *equation.pivot_unless)]
+    if resolved[0] is None or resolved[0] in resolved[1:]:
+        return None
+    return resolved[0]
+
+
+def _resolve(name: str, position: dict, aliases: AliasMap, name_index: dict):
+    """The remaining variable a name stands for (itself, or c·v + k after alias elimination), or None."""
     expr = aliases.expressions.get(name)
     if expr is None:
-        return next((i for i, v in enumerate(variables) if v.name == name), None)
+        return name_index.get(name)
     syms = ca.symvar(ca.SX(expr))
     if len(syms) != 1 or ca.depends_on(ca.jacobian(expr, syms[0]), syms[0]):
         return None
@@ -56,6 +66,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     alg_labels: list[str] = []
 
     position = {s.element_hash(): i for i, s in enumerate(symbols)}
+    name_index = {v.name: i for i, v in enumerate(variables)}
     depends: dict[int, set] = {}           # variable -> the unknowns its block reads
     for block in structure.blocks:
         block_vars = [structure.unknowns[structure.matching[e]] for e in block]
@@ -66,7 +77,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
         if options.tearing:
             guarded = any(flat.equations[e].order > 0 or flat.equations[e].regular for e in block)
             pivots = {k: v for k, e in enumerate(block)
-                      if (v := _pivot(flat.equations[e].pivot, variables, position, aliases)) in block_vars}
+                      if (v := _pivot(flat.equations[e], position, aliases, name_index)) in block_vars}
             sol = solve_block(residuals, block_vars, symbols, param_hashes, guarded, pivots)
         else:
             sol = BlockSolution([], list(block_vars), residuals, list(range(len(block))))

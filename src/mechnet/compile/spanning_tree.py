@@ -130,6 +130,7 @@ class _Tree:
         self.let_symbols, self.let_values = [], []
         self._body_cache, self._velocity_cache = {}, {}
         self._pivots = []                     # (joint, D, scale): checked numerically once the tree is built
+        self._pivot_rows = []                 # (equation index, link's own inertia along the joint, its M)
 
     def let(self, expr, name):
         """Hide a state-only expression behind named symbols, entry by entry (numbers stay numbers, so
@@ -362,9 +363,16 @@ class _Tree:
             Ap = self.A[parent_link]
             pre = ca.vertcat(Ap[:3], Ap[3:] + _cross(Ap[:3], d)) + self.velocity_terms(link)
             qdd = der(e.speed())
+            if link not in massless and qdd.is_symbolic():
+                # D may be divided by when the link's own inertia about its freedom is positive (D is at
+                # least that); _mark_pivots checks it once the tree is built. Not when simplification
+                # makes the acceleration one of the parent's, which this row also holds
+                self._pivot_rows.append((len(tree.equations), ca.dot(S, ca.mtimes(M[link], S)), M[link]))
+                unless = tuple(a.name() for a in ca.vertsplit(Ap) if a.is_symbolic())
             _eq(tree, e, D[link] * qdd - (e.axis_load() - ca.dot(S, ca.mtimes(IA[link], pre) + P[link])),
                 "joint acceleration (articulated-body outward pass)", regular=link not in massless,
-                pivot=qdd.name() if link not in massless and qdd.is_symbolic() else "")
+                pivot=qdd.name() if link not in massless and qdd.is_symbolic() else "",
+                pivot_unless=unless if link not in massless and qdd.is_symbolic() else ())
             side = "frame_b" if self.joint[link][2] else "frame_a"
             self.A[link] = _defined(tree, e, [f"{e.path}.{side}.z_0[{i}]" for i in range(3)] +
                                     [f"{e.path}.{side}.a_0[{i}]" for i in range(3)], ["rad/s2"] * 3 + ["m/s2"] * 3,
@@ -449,6 +457,32 @@ class _Tree:
                     f"(or inertia) along its axis, so its acceleration is undetermined; attach a Body off "
                     f"the axis, or drive it through its flange (use_flange=True)")
 
+    def mark_pivots(self, tree):
+        """Keep a joint-acceleration row's pivot only where the link's own inertia along the joint's
+        freedom, Sᵀ·M·S, is positive: the articulated inertia D is at least that, at every configuration
+        (the children only add positive semi-definite terms), so dividing by D is safe. For a revolute
+        joint it is the link's moment of inertia about its axis, for a prismatic one its mass; both are
+        constants, checked numerically at two random configurations. Not when it depends on a tunable
+        parameter (it could be set to zero per run): D may vanish where the link itself has no mass
+        (a massless rod driven through its flange), and the block is then solved whole."""
+        if not self._pivot_rows:
+            return
+        q = ca.vertcat(*[qs for _, qs, _ in self.coordinates])
+        tunables = [(sym, value) for c in self.components for sym, value in c.tunable.values()]
+        p = ca.vertcat(*[sym for sym, _ in tunables]) if tunables else ca.SX(0, 1)
+        own = ca.vertcat(*[ca.vertcat(o, ca.trace(Mk[:3, :3]) + ca.trace(Mk[3:, 3:])) for _, o, Mk in self._pivot_rows])
+        _, (own,) = ca.substitute_inplace(self.let_symbols, self.let_values, [own], False)
+        speeds = ca.vertcat(*[qds for _, _, qds in self.coordinates])
+        own = ca.substitute(own, speeds, ca.DM.zeros(speeds.numel()))
+        fn = ca.Function("own_inertia", [q, p], [own])
+        rng = np.random.default_rng(54321)
+        values = [np.asarray(fn(rng.uniform(-np.pi, np.pi, q.numel()), [v for _, v in tunables])).ravel()
+                  for _ in range(2)]
+        for k, (index, _, _) in enumerate(self._pivot_rows):
+            tuned = p.numel() > 0 and ca.depends_on(own[2 * k], p)
+            if tuned or not all(v[2 * k] > 1e-9 * max(v[2 * k + 1], 1e-300) for v in values):
+                tree.equations[index] = replace(tree.equations[index], pivot="", pivot_unless=())
+
     def close_loops(self, tree):
         """Each cut edge: closure residuals (redundant planar directions dropped), balance, drive."""
         if not self.cuts:
@@ -522,6 +556,7 @@ def build_tree(components, graph: nx.Graph):
                          sum(isinstance(c, t.PartialBody) for c in components), t.world.path)
     t.dynamics(tree)
     t.check_pivots()
+    t.mark_pivots(tree)
     t.frame_values(tree)
     t.cut_forces(tree)
     t.close_loops(tree)
@@ -556,9 +591,9 @@ def _new(tree, comp, names, units):
     return ca.vertcat(*syms)
 
 
-def _eq(tree, comp, residual, doc, regular=False, pivot=""):
+def _eq(tree, comp, residual, doc, regular=False, pivot="", pivot_unless=()):
     residual = ca.reshape(ca.SX(residual), -1, 1)
     label = f"{comp.path} ({type(comp).__name__}), tree equation"
     for i in range(residual.numel()):
         tree.equations.append(FlatEquation(residual[i], comp.path, label + (f"[{i}]" if residual.numel() > 1 else ""),
-                                           doc, regular=regular, pivot=pivot))
+                                           doc, regular=regular, pivot=pivot, pivot_unless=pivot_unless))

@@ -112,7 +112,9 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
     offsets = np.asarray(offsets_dm, dtype=float).ravel()
     for k, name in enumerate(names):
         value = start[name]
-        if not pattern[k]:
+        # constant at this start: no variable in it, or its one coefficient zero at these parameters
+        # (y = k·x with a tunable k = 0 holds y = 0 whatever x is)
+        if not pattern[k] or (k in linear and float(coefs[k, linear[k]]) == 0.0):
             const = float(offsets[k])
             if abs(const - value) > 1e-9 * max(1.0, abs(value)):
                 raise InitializationError(
@@ -123,7 +125,7 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
         if k in linear:
             j = linear[k]
             coef = float(coefs[k, j])
-            if coef != 0.0:
+            if coef != 0.0:                       # (always: a zero coefficient was a constant above)
                 val = (value - float(offsets[k])) / coef
                 if j in implied:
                     other, other_val = implied[j]

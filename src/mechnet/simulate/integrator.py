@@ -42,6 +42,7 @@ PROGRESS_MIN_POINTS = 1000
 PROGRESS_AFTER_SECONDS = 1.0
 SOLVER_STEPS_PER_CHECK = 16.0   # the state-selection monitor checks its quality about this often
 HORIZON_REACH = 2.0             # a piece aimed at a predicted switch reaches this many times as far,
+MAX_PIECE_POINTS = 20_000       # monitor points in one piece at most
 PIECE_GROWTH = 4                # and one that needed no cut makes the next this many times longer (both
                                 # while the run has had no switch, change point or state event)
 
@@ -397,8 +398,9 @@ class _Run(StateEvents, Reselection, ChangePoints):
         so the running selection's quality moves by at most ~0.05 between points. While
         nothing has happened, a piece that needed no cut makes the next PIECE_GROWTH times
         longer, up to the rest of the run: each restart costs IDAS ~30 ramp-up steps, so the
-        benchmark's loops run in 5 calls (were 11–14). A failed piece is retried up to the
-        output time before where the solver gave up.
+        benchmark's loops run in 5 calls (were 11–14). A failed piece is retried up to an
+        output time before the last point it reached. A piece holds at most MAX_PIECE_POINTS
+        monitor points (memory: the monitor batches them all).
         """
         n_int = grid.size - 1
         longest = n_int
@@ -408,6 +410,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
         grid_set = set(grid.tolist())
         t_cur, k = grid[0], 0                         # current time; next output index is k + 1
         while k < n_int:
+            per_piece = max(1, min(per_piece, MAX_PIECE_POINTS // density))
             k_end = min(k + per_piece, n_int)
             for j in range(k + 1, k_end + 1):
                 if grid[j] in event_at:
@@ -430,8 +433,8 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 k = int(np.searchsorted(grid, t_cur, side="right")) - 1
                 continue
             if not ok and per_piece > 1:
-                # maybe a switch was due inside: look closer, ending before where the solver gave up
-                # (its last time, from the failed call's statistics), or halve when that is unknown
+                # maybe a switch was due inside: look closer, ending at an output time before the last
+                # point the failed call reached (from its statistics), or halve when that is unknown
                 reached = int(np.searchsorted(grid, self._failed_at, side="left")) - 1 - k \
                     if self._failed_at is not None else 0
                 per_piece = max(1, reached) if 0 < reached < per_piece else per_piece // 2
@@ -559,7 +562,9 @@ class _Run(StateEvents, Reselection, ChangePoints):
         try:
             out = _call(F, self.x / self.xn, self.z / self.zn if self.zn.size else np.zeros(0), self.pvec(t0, h))
         except RuntimeError as exc:
-            reached = F.stats().get("tcur", float("nan"))              # normalised time the solver got to
+            # after a failure CasADi's `tcur` is the last output time the solver reached (normalised; 0
+            # when it failed before the first): the failure lies after it
+            reached = F.stats().get("tcur", float("nan"))
             self._failed_at = t0 + reached * h if np.isfinite(reached) and 0 < reached < 1 else None
             return False, str(exc), None, None
         s = F.stats()
