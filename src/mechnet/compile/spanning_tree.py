@@ -439,23 +439,28 @@ class _Tree:
         ones (a mass on a tilted axis), at two random configurations, relative to the subtree's inertia."""
         if not self._pivots:
             return
-        q = ca.vertcat(*[qs for _, qs, _ in self.coordinates])
-        tunables = [(sym, value) for c in self.components for sym, value in c.tunable.values()]
-        p = ca.vertcat(*[sym for sym, _ in tunables]) if tunables else ca.SX(0, 1)
-        exprs = ca.vertcat(*[ca.vertcat(D, scale) for _, D, scale in self._pivots])
-        _, (exprs,) = ca.substitute_inplace(self.let_symbols, self.let_values, [exprs], False)
-        speeds = ca.vertcat(*[qds for _, _, qds in self.coordinates])
-        exprs = ca.substitute(exprs, speeds, ca.DM.zeros(speeds.numel()))
-        fn = ca.Function("pivots", [q, p], [exprs])
-        rng = np.random.default_rng(12345)
-        values = [np.asarray(fn(rng.uniform(-np.pi, np.pi, q.numel()), [v for _, v in tunables])).ravel()
-                  for _ in range(2)]
+        _, values = self._at_random_configurations(
+            ca.vertcat(*[ca.vertcat(D, scale) for _, D, scale in self._pivots]), 12345)
         for k, (e, _, _) in enumerate(self._pivots):
             if all(abs(v[2 * k]) <= 1e-12 * max(abs(v[2 * k + 1]), 1e-300) for v in values):
                 raise StructureError(
                     f"joint {e.path} ({type(e).__name__}) moves no mass: what lies beyond it has no mass "
                     f"(or inertia) along its axis, so its acceleration is undetermined; attach a Body off "
                     f"the axis, or drive it through its flange (use_flange=True)")
+
+    def _at_random_configurations(self, exprs, seed):
+        """exprs in the joint coordinates (intermediates expanded), and their values at rest at two random
+        configurations with the tunable parameters at their values."""
+        q = ca.vertcat(*[qs for _, qs, _ in self.coordinates])
+        tunables = [(sym, value) for c in self.components for sym, value in c.tunable.values()]
+        p = ca.vertcat(*[sym for sym, _ in tunables]) if tunables else ca.SX(0, 1)
+        _, (exprs,) = ca.substitute_inplace(self.let_symbols, self.let_values, [exprs], False)
+        speeds = ca.vertcat(*[qds for _, _, qds in self.coordinates])
+        exprs = ca.substitute(exprs, speeds, ca.DM.zeros(speeds.numel()))
+        fn = ca.Function("at_random", [q, p], [exprs])
+        rng = np.random.default_rng(seed)
+        return exprs, [np.asarray(fn(rng.uniform(-np.pi, np.pi, q.numel()), [v for _, v in tunables])).ravel()
+                       for _ in range(2)]
 
     def mark_pivots(self, tree):
         """Keep a joint-acceleration row's pivot only where the link's own inertia along the joint's
@@ -467,17 +472,9 @@ class _Tree:
         (a massless rod driven through its flange), and the block is then solved whole."""
         if not self._pivot_rows:
             return
-        q = ca.vertcat(*[qs for _, qs, _ in self.coordinates])
-        tunables = [(sym, value) for c in self.components for sym, value in c.tunable.values()]
-        p = ca.vertcat(*[sym for sym, _ in tunables]) if tunables else ca.SX(0, 1)
-        own = ca.vertcat(*[ca.vertcat(o, ca.trace(Mk[:3, :3]) + ca.trace(Mk[3:, 3:])) for _, o, Mk in self._pivot_rows])
-        _, (own,) = ca.substitute_inplace(self.let_symbols, self.let_values, [own], False)
-        speeds = ca.vertcat(*[qds for _, _, qds in self.coordinates])
-        own = ca.substitute(own, speeds, ca.DM.zeros(speeds.numel()))
-        fn = ca.Function("own_inertia", [q, p], [own])
-        rng = np.random.default_rng(54321)
-        values = [np.asarray(fn(rng.uniform(-np.pi, np.pi, q.numel()), [v for _, v in tunables])).ravel()
-                  for _ in range(2)]
+        own, values = self._at_random_configurations(ca.vertcat(*[
+            ca.vertcat(o, ca.trace(Mk[:3, :3]) + ca.trace(Mk[3:, 3:])) for _, o, Mk in self._pivot_rows]), 54321)
+        p = ca.vertcat(*[sym for c in self.components for sym, _ in c.tunable.values()])
         for k, (index, _, _) in enumerate(self._pivot_rows):
             tuned = p.numel() > 0 and ca.depends_on(own[2 * k], p)
             if tuned or not all(v[2 * k] > 1e-9 * max(v[2 * k + 1], 1e-300) for v in values):
