@@ -433,11 +433,12 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 k = int(np.searchsorted(grid, t_cur, side="right")) - 1
                 continue
             if not ok and per_piece > 1:
-                # maybe a switch was due inside: look closer, ending at an output time before the last
-                # point the failed call reached (from its statistics), or halve when that is unknown
+                # maybe a switch was due inside: look closer. Halve, and end at most half-way to the
+                # last point the failed call reached (from its statistics): a piece ending just before
+                # it failed again on the triple rocker (the solver crawls for a while before it gives up)
                 reached = int(np.searchsorted(grid, self._failed_at, side="left")) - 1 - k \
                     if self._failed_at is not None else 0
-                per_piece = max(1, reached) if 0 < reached < per_piece else per_piece // 2
+                per_piece = max(1, min(per_piece // 2, reached // 2)) if reached > 0 else per_piece // 2
                 continue
             if not ok and self.monitor is not None and fraction > 1e-3:
                 fraction /= 4                         # a switch due within this interval: take part of it
