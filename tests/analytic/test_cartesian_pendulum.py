@@ -50,10 +50,11 @@ def test_swings_over_the_top_quarter_with_reselections_and_exact_length():
     assert np.any(res["p.y"] > 0.5) and np.any(res["p.x"] < -0.5) and np.any(res["p.x"] > 0.5)
     # Energy per unit mass, scale g·L, against a hand-written CasADi model of the same pendulum in its
     # angle (an ODE, no constraint, no switching) with IDAS at the same settings and grid. Measured:
-    # mechnet 3.9e-5, hand-written 7.7e-6 — the 40 restarts at reselections cost a factor ~5, so the
-    # bound is 10× (not the usual 3×); see the issue note.
+    # mechnet 1.4e-5, hand-written 7.7e-6. The 40 restarts at reselections move it by ±50 % with where
+    # the pieces fall (2.2e-5 to 3.5e-5 in equally valid piece plans, 7e-5 with pieces that ran past
+    # the switches), so the bound is 5× (not the usual 3×); see the issue note.
     E = 0.5 * (res["p.vx"] ** 2 + res["p.vy"] ** 2) + G * res["p.y"]
-    assert np.max(np.abs(E - E[0])) <= 10 * _hand_written_energy_drift(theta0, res.t, 1e-8, 1e-8)
+    assert np.max(np.abs(E - E[0])) <= 5 * _hand_written_energy_drift(theta0, res.t, 1e-8, 1e-8)
 
 
 def _hand_written_energy_drift(theta0, t, rtol, atol):
