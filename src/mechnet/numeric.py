@@ -32,7 +32,7 @@ class NumpyCall:
         keep = []
         for i, (arg, (rows, cols)) in enumerate(zip(args, self.shape_in)):
             a = np.asarray(arg, dtype=float)
-            if a.shape not in ((rows, cols), (rows * cols,)) and not (a.size == rows * cols and cols == 1):
+            if a.shape != (rows, cols) and not (cols == 1 and a.size == rows):     # a column: any flat shape
                 raise ValueError(f"{self.f.name()}: input {i} has shape {a.shape}, expected {rows}×{cols}")
             # CasADi stores column-major: the C-order transpose has the same memory layout
             a = np.ascontiguousarray(a.reshape(rows, cols).T) if cols > 1 else np.ascontiguousarray(a.ravel())
@@ -58,3 +58,11 @@ def dense(f: ca.Function) -> ca.Function:
 def mapped(f: ca.Function, n: int) -> NumpyCall:
     """f evaluated at n points in one call (inputs and outputs side by side, one column per point)."""
     return NumpyCall(dense(f).map(n))
+
+
+def mapped_in(cache: dict, f: ca.Function, n: int) -> NumpyCall:
+    """`mapped(f, n)`, kept in `cache` under n (a compiled model's, so across runs: building the map
+    costs as much as evaluating it)."""
+    if n not in cache:
+        cache[n] = mapped(f, n)
+    return cache[n]

@@ -58,7 +58,8 @@ class IndexReport:
         if not self.differentiated:
             return "reduce: no constraint among states, nothing differentiated"
         diffs = grouped_differentiations(self.differentiated)
-        return f"reduce: structural index {self.index}; differentiated {diffs}; dummy derivatives {', '.join(self.dummies)}"
+        return (f"reduce: structural index {self.index}; differentiated {diffs}; "
+                f"dummy derivatives {', '.join(self.dummies)}")
 
 
 def grouped_differentiations(differentiated) -> str:

@@ -365,7 +365,7 @@ class _Tree:
             qdd = der(e.speed())
             if link not in massless and qdd.is_symbolic():
                 # D may be divided by when the link's own inertia about its freedom is positive (D is at
-                # least that); _mark_pivots checks it once the tree is built. Not when simplification
+                # least that); mark_pivots checks it once the tree is built. Not when simplification
                 # makes the acceleration one of the parent's, which this row also holds
                 self._pivot_rows.append((len(tree.equations), ca.dot(S, ca.mtimes(M[link], S)), M[link]))
                 unless = tuple(a.name() for a in ca.vertsplit(Ap) if a.is_symbolic())
@@ -439,7 +439,7 @@ class _Tree:
         ones (a mass on a tilted axis), at two random configurations, relative to the subtree's inertia."""
         if not self._pivots:
             return
-        _, values = self._at_random_configurations(
+        _, values, _ = self._at_random_configurations(
             ca.vertcat(*[ca.vertcat(D, scale) for _, D, scale in self._pivots]), 12345)
         for k, (e, _, _) in enumerate(self._pivots):
             if all(abs(v[2 * k]) <= 1e-12 * max(abs(v[2 * k + 1]), 1e-300) for v in values):
@@ -449,8 +449,8 @@ class _Tree:
                     f"the axis, or drive it through its flange (use_flange=True)")
 
     def _at_random_configurations(self, exprs, seed):
-        """exprs in the joint coordinates (intermediates expanded), and their values at rest at two random
-        configurations with the tunable parameters at their values."""
+        """exprs in the joint coordinates (intermediates expanded), their values at rest at two random
+        configurations with the tunable parameters at their values, and those parameters' symbols."""
         q = ca.vertcat(*[qs for _, qs, _ in self.coordinates])
         tunables = [(sym, value) for c in self.components for sym, value in c.tunable.values()]
         p = ca.vertcat(*[sym for sym, _ in tunables]) if tunables else ca.SX(0, 1)
@@ -460,7 +460,7 @@ class _Tree:
         fn = ca.Function("at_random", [q, p], [exprs])
         rng = np.random.default_rng(seed)
         return exprs, [np.asarray(fn(rng.uniform(-np.pi, np.pi, q.numel()), [v for _, v in tunables])).ravel()
-                       for _ in range(2)]
+                       for _ in range(2)], p
 
     def mark_pivots(self, tree):
         """Keep a joint-acceleration row's pivot only where the link's own inertia along the joint's
@@ -472,9 +472,8 @@ class _Tree:
         (a massless rod driven through its flange), and the block is then solved whole."""
         if not self._pivot_rows:
             return
-        own, values = self._at_random_configurations(ca.vertcat(*[
+        own, values, p = self._at_random_configurations(ca.vertcat(*[
             ca.vertcat(o, ca.trace(Mk[:3, :3]) + ca.trace(Mk[3:, 3:])) for _, o, Mk in self._pivot_rows]), 54321)
-        p = ca.vertcat(*[sym for c in self.components for sym, _ in c.tunable.values()])
         for k, (index, _, _) in enumerate(self._pivot_rows):
             tuned = p.numel() > 0 and ca.depends_on(own[2 * k], p)
             if tuned or not all(v[2 * k] > 1e-9 * max(v[2 * k + 1], 1e-300) for v in values):

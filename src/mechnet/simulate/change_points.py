@@ -19,9 +19,9 @@ import numpy as np
 from scipy.interpolate import BarycentricInterpolator, CubicHermiteSpline
 
 from ..core.errors import MechnetError
+from ..numeric import mapped_in
 from .events import Event
 from .initialize import solve_algebraic
-from ..numeric import mapped
 from .reselection import dae_arguments
 
 RANK_LOSS = 1e-4          # conditioning of the algebraic block below this: the constraints are losing rank
@@ -55,13 +55,12 @@ class ChangePoints:
     def _alg_jacobian_function(self, n):
         """∂alg/∂z of the running compiled selection, mapped over n points (cached per selection, across
         runs)."""
-        cache = self.dae.info.setdefault("_alg_jacobians", {})
-        if n not in cache:
-            if "single" not in cache:
-                args = dae_arguments(self.dae)
-                cache["single"] = ca.Function("alg_z", args, [ca.jacobian(self.dae.alg(*args), args[2])])
-            cache[n] = mapped(cache["single"], n)
-        return cache[n]
+        if "_alg_jacobians" not in self.dae.info:
+            args = dae_arguments(self.dae)
+            self.dae.info["_alg_jacobians"] = (ca.Function("alg_z", args, [ca.jacobian(self.dae.alg(*args), args[2])]),
+                                               {})
+        single, maps = self.dae.info["_alg_jacobians"]
+        return mapped_in(maps, single, n)
 
     def _pass_change_point(self, grid, limit=None):
         """After a failure: step over a change point and return the new time, or None (a real failure).
@@ -133,8 +132,9 @@ class ChangePoints:
         The first try goes as far past the estimated point as the start was before it; then tries
         double from the last step before the start, up to MAX_GROWTH steps or two output intervals.
         States follow the cubic through the last two points' values and rates (error O(Δt⁴) over the
-        jump); algebraic variables are re-solved from the quadratic through the last three points. A landing is kept when Newton stayed on that branch (the other branch lies
-        O(Δt) away, the prediction O(Δt²)) and the conditioning rises there: the point lies behind."""
+        jump); algebraic variables are re-solved from the quadratic through the last three points. A
+        landing is kept when Newton stayed on that branch (the other branch lies O(Δt) away, the
+        prediction O(Δt²)) and the conditioning rises there: the point lies behind."""
         t1, x1, z1 = ts[-1], xs[-1], zs[-1]
         h = t1 - ts[-2]
         if h <= 0:

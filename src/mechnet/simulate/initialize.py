@@ -122,19 +122,17 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
                     f"{const:g} (a fixed element, a prescribed motion or an input determines it); remove this "
                     f"start value")
             continue
-        if k in linear:
+        if k in linear:                           # its coefficient is not zero: that was a constant above
             j = linear[k]
-            coef = float(coefs[k, j])
-            if coef != 0.0:                       # (always: a zero coefficient was a constant above)
-                val = (value - float(offsets[k])) / coef
-                if j in implied:
-                    other, other_val = implied[j]
-                    if abs(other_val - val) > 1e-9 * max(1.0, abs(val)):
-                        raise InitializationError(
-                            f"start values {other} and {name} = {value:g} conflict: both fix the same "
-                            f"quantity (they are aliases through a connection), to {other_val:g} and {val:g}")
-                    continue
-                implied[j] = (name, val)
+            val = (value - float(offsets[k])) / float(coefs[k, j])
+            if j in implied:
+                other, other_val = implied[j]
+                if abs(other_val - val) > 1e-9 * max(1.0, abs(val)):
+                    raise InitializationError(
+                        f"start values {other} and {name} = {value:g} conflict: both fix the same "
+                        f"quantity (they are aliases through a connection), to {other_val:g} and {val:g}")
+                continue
+            implied[j] = (name, val)
         conditions.append((name, k, float(value)))
     if steady_state:                  # der(x) = 0 for every state, in place of start values for them
         conditions.extend((f"der({n})", None, 0.0) for n in dae.x_names)
@@ -268,8 +266,8 @@ def solve_algebraic(dae, t: float, x: np.ndarray, z_guess: np.ndarray, u: np.nda
     if dae.z.numel() == 0:
         return np.zeros(0)
     if "_algebraic_newton" not in dae.info:             # built once per model: restarts are frequent
-        args = [dae.t, dae.x, dae.u, dae.p, dae.d]
-        dae.info["_algebraic_newton"] = _residual_pair("alg_at_t", dae.z, args, dae.alg(dae.t, dae.x, dae.z, *args[2:]))
+        alg = dae.alg(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d)
+        dae.info["_algebraic_newton"] = _residual_pair("alg_at_t", dae.z, [dae.t, dae.x, dae.u, dae.p, dae.d], alg)
     residual, jacobian = dae.info["_algebraic_newton"]
     z, r = _newton(residual, jacobian, np.asarray(z_guess, dtype=float).copy(), (t, x, u, p, d))
     if not np.all(np.isfinite(r)) or np.max(np.abs(r)) > 1e-8 * (1.0 + np.max(np.abs(z))):

@@ -27,13 +27,13 @@ import numpy as np
 
 from ..core.errors import InitializationError, IntegrationError, MechnetError, ParameterError, UnknownNameError
 from ..core.declarations import finite_number
+from ..numeric import mapped_in
 from .events import Event, breakpoints, chunk_bounds, output_grid
 from .change_points import ChangePoints
 from .reselection import Reselection, SelectionMonitor
 from .state_events import StateEvents
 from .initialize import initialize, solve_algebraic
 from .inputs import plan_inputs
-from ..numeric import mapped
 from .result import Result, unknown_name
 
 METHODS = ("auto", "idas", "cvodes-bdf", "cvodes-adams")
@@ -42,9 +42,9 @@ PROGRESS_MIN_POINTS = 1000
 PROGRESS_AFTER_SECONDS = 1.0
 SOLVER_STEPS_PER_CHECK = 16.0   # the state-selection monitor checks its quality about this often
 HORIZON_REACH = 2.0             # a piece aimed at a predicted switch reaches this many times as far,
-MAX_PIECE_POINTS = 20_000       # monitor points in one piece at most
 PIECE_GROWTH = 4                # and one that needed no cut makes the next this many times longer (both
                                 # while the run has had no switch, change point or state event)
+MAX_PIECE_POINTS = 20_000       # monitor points in one piece at most
 
 
 class IntegrationWarning(UserWarning):
@@ -398,8 +398,8 @@ class _Run(StateEvents, Reselection, ChangePoints):
         so the running selection's quality moves by at most ~0.05 between points. While
         nothing has happened, a piece that needed no cut makes the next PIECE_GROWTH times
         longer, up to the rest of the run: each restart costs IDAS ~30 ramp-up steps, so the
-        benchmark's loops run in 5 calls (were 11–14). A failed piece is retried up to an
-        output time before the last point it reached. A piece holds at most MAX_PIECE_POINTS
+        benchmark's loops run in 5 calls (were 11–14). A failed piece is retried at half its
+        length, and at most half-way to the last point it reached. A piece holds at most MAX_PIECE_POINTS
         monitor points (memory: the monitor batches them all).
         """
         n_int = grid.size - 1
@@ -664,10 +664,8 @@ def _observe(dae, T, X, Z, plan, p, d) -> np.ndarray:
     U = np.tile(plan.constant.reshape(-1, 1), n)
     for k, (times, values) in plan.varying.items():
         U[k] = np.interp(T, times, values)
-    maps = dae.info.setdefault("_observed_maps", {})       # Function.map costs as much as evaluating
-    if n not in maps:
-        maps[n] = mapped(dae.observed, n)
-    y, = maps[n](T.reshape(1, -1), X.T, Z.T, U, np.tile(p.reshape(-1, 1), n), np.tile(d.reshape(-1, 1), n))
+    observed = mapped_in(dae.info.setdefault("_observed_maps", {}), dae.observed, n)
+    y, = observed(T.reshape(1, -1), X.T, Z.T, U, np.tile(p.reshape(-1, 1), n), np.tile(d.reshape(-1, 1), n))
     return y.T
 
 

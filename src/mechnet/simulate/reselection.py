@@ -15,9 +15,9 @@ import casadi as ca
 import numpy as np
 
 from ..core.errors import MechnetError
+from ..numeric import mapped_in
 from .events import Event
 from .initialize import solve_algebraic
-from ..numeric import mapped
 
 
 class Reselection:
@@ -124,19 +124,15 @@ class SelectionMonitor:
     def watched(self, dae, n):
         """The variables the selection depends on (`factory.watched_indices()`), at n points in one call.
         Only these are evaluated, not every observed name; cached per compiled selection and n."""
-        cache = dae.info.setdefault("_watched", {})        # per compiled selection, across runs
-        key = n
-        if key not in cache:
-            single = "single"
-            if single not in cache:
-                args = dae_arguments(dae)
-                y = dae.observed(*args)
-                position = {name: k for k, name in enumerate(dae.observed_names)}
-                out = ca.vertcat(*[y[position[self.names[k]]] if self.names[k] in position else ca.SX(0)
-                                   for k in self.factory.watched_indices()])
-                cache[single] = ca.Function("watched", args, [out])
-            cache[key] = mapped(cache[single], n)
-        return cache[key]
+        if "_watched" not in dae.info:                    # per compiled selection, across runs
+            args = dae_arguments(dae)
+            y = dae.observed(*args)
+            position = {name: k for k, name in enumerate(dae.observed_names)}
+            out = ca.vertcat(*[y[position[self.names[k]]] if self.names[k] in position else ca.SX(0)
+                               for k in self.factory.watched_indices()])
+            dae.info["_watched"] = (ca.Function("watched", args, [out]), {})
+        single, maps = dae.info["_watched"]
+        return mapped_in(maps, single, n)
 
     def better(self, observed_values, probe=False, params=None):
         """`better_at` from a vector of every observed value (the compiled model's `observed`)."""

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.errors import IntegrationError
-from ..numeric import mapped
+from ..numeric import mapped_in
 from .events import Event
 from .initialize import solve_algebraic
 
@@ -124,11 +124,9 @@ class StateEvents:
             return None
         n = pts.size if limit is None else limit + 1
         U = self._inputs_at(pts[:n])
-        maps = self.dae.info.setdefault("_zero_maps", {})      # per compiled model and n, across runs
-        if n not in maps:
-            maps[n] = mapped(self.dae.zero, n)
-        G = maps[n](pts[:n].reshape(1, -1), xs[:n].T, zs[:n].T, U, np.tile(self.p.reshape(-1, 1), n),
-                    np.tile(self.d.reshape(-1, 1), n))[0].T
+        zero = mapped_in(self.dae.info.setdefault("_zero_maps", {}), self.dae.zero, n)
+        G = zero(pts[:n].reshape(1, -1), xs[:n].T, zs[:n].T, U, np.tile(self.p.reshape(-1, 1), n),
+                 np.tile(self.d.reshape(-1, 1), n))[0].T
         dirs = np.array(self.dae.zero_directions)
         falling = (G[:-1] > 0) & (G[1:] <= 0) & (dirs <= 0)
         rising = (G[:-1] < 0) & (G[1:] >= 0) & (dirs >= 0)
