@@ -28,7 +28,6 @@ import math
 import platform
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import casadi as ca
@@ -40,6 +39,8 @@ from models import stephenson_mm, stephenson_mm_by_hand  # noqa: E402
 
 import mechnet as mn  # noqa: E402
 from mechnet.components import multibody as mb  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import timing  # noqa: E402
 
 T_END, N_OUT, REPEATS = 0.02, 201, 3
 RTOLS = (1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
@@ -47,12 +48,7 @@ HAND_EXTRA = (1e-4, 1e-5)          # hand model only: its curve reaches mechnet'
 
 
 def best_of(fn):
-    best, out = math.inf, None
-    for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
+    return timing.best_of(fn, REPEATS)
 
 
 def hand_run(x, rate, energy, grid, rtol, atol):

@@ -41,6 +41,8 @@ import numpy as np
 
 import mechnet as mn
 from mechnet.components import rotational as rot
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import timing  # noqa: E402
 
 C, D, J = 1e3, 0.1, 0.01
 PHI_LAST = 1.0
@@ -93,12 +95,7 @@ def hand_integrator(n: int, method: str, grid: np.ndarray):
 
 # ----------------------------------------------------------------------------- timing helpers
 def best_of(fn, repeats=REPEATS):
-    best, out = math.inf, None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
+    return timing.best_of(fn, repeats)
 
 
 def bench_n(n: int):

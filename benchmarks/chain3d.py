@@ -49,7 +49,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import math
 import os
 import platform
 import sys
@@ -63,6 +62,8 @@ from scipy.integrate import solve_ivp
 
 import mechnet as mn
 from mechnet.components import multibody as mb
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import timing  # noqa: E402
 
 G, MASS, LENGTH = 9.81, 1.0, 1.0
 T_END, N_OUT, T_CMP = 10.0, 101, 1.0
@@ -190,12 +191,7 @@ def pydy_codegen(kane, q, u, constants):
 
 # ----------------------------------------------------------------------------- helpers
 def best_of(fn, repeats=REPEATS):
-    best, out = math.inf, None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
+    return timing.best_of(fn, repeats)
 
 
 def timed(fn):

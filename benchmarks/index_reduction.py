@@ -32,6 +32,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import mechnet as mn  # noqa: E402
 from mechnet.components import rotational as rot  # noqa: E402
 from models import cartesian_pendulum  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import timing  # noqa: E402
 
 RTOL = ATOL = 1e-8
 
@@ -58,12 +60,7 @@ def geared_drive_line(n: int) -> tuple[mn.Model, float]:
 
 
 def best_of(f, repeat=3):
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = f()
-        times.append(time.perf_counter() - t0)
-    return min(times), out
+    return timing.best_of(f, repeat)
 
 
 def study_gears(ns):

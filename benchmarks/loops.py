@@ -50,6 +50,8 @@ from models import four_bar, four_bar_angles, slider_crank  # noqa: E402
 import mechnet as mn  # noqa: E402
 from mechnet.components import rotational as rot  # noqa: E402
 from mechnet.simulate import integrator as mn_integrator  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import timing  # noqa: E402
 
 G, T_END, N_OUT, REPEATS = 9.81, 2.0, 201, 7
 RTOLS = (1e-4, 1e-6, 1e-8, 1e-10)
@@ -173,12 +175,7 @@ def crank(F, x0, z0=None):
 
 # ----------------------------------------------------------------------------- measurement
 def best_of(fn, repeats=REPEATS):
-    best, out = math.inf, None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
+    return timing.best_of(fn, repeats)
 
 
 @contextlib.contextmanager
