@@ -30,6 +30,7 @@ from ..core.declarations import finite_number
 from ..numeric import mapped_in
 from .events import Event, breakpoints, chunk_bounds, output_grid
 from .change_points import ChangePoints
+from .branch import Verdict, state_names
 from .reselection import Reselection, SelectionMonitor
 from .state_events import StateEvents
 from .initialize import initialize, solve_algebraic
@@ -291,7 +292,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
     def integrate(self, grid, events, progress):
         self.monitor = SelectionMonitor.create(self.cm, self.dae)
         if self.monitor is not None:
-            self._reselect(grid[0])
+            self._select_for_branch(grid[0])
         self._record(grid[0])
         if self.dae.x.numel() == 0:
             for t in grid[1:]:
@@ -342,6 +343,30 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 bar.update(float(grid[b] - grid[bounds[bounds.index(b) - 1]]))
         if bar is not None:
             bar.close()
+
+    def _select_for_branch(self, t):
+        """Run without the monitor when a selection holds on the whole branch (`branch.py`), switching
+        to it first if it is not the running one; else check the start, and monitor the run."""
+        values = self._observed_at(t)
+        verdict = self.monitor.whole_branch(values, self.p)
+        if verdict.holds and verdict.dummies != self.monitor.current:
+            try:
+                other = self.cm.selection(verdict.dummies)
+            except MechnetError:           # that choice cannot hold the model's resets
+                verdict = Verdict(False, f"states {', '.join(verdict.states)} cannot hold the model's resets")
+            else:
+                old = state_names(self.monitor.factory, self.monitor.current)
+                self._switch_selection(t, values, verdict.dummies, other,
+                                       f"whole-branch selection: states {', '.join(old)} -> "
+                                       f"{', '.join(verdict.states)}")
+        self.stats["selection"] = verdict.describe()
+        if verdict.holds:
+            self.monitor = None               # it would never act on this branch: integrate in one piece
+        else:
+            self._reselect(t)
+
+    def _observed_at(self, t) -> np.ndarray:
+        return np.asarray(self.dae.observed(t, self.x, self.z, self._u_at(t), self.p, self.d)).ravel()
 
     def _u_at(self, t):
         u = self.plan.constant.copy()

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..core.errors import MechnetError
 from ..numeric import mapped_in
+from .branch import Verdict, check_branch, state_names
 from .events import Event
 from .initialize import solve_algebraic
 
@@ -67,24 +68,26 @@ class Reselection:
 
         Returns the quality ratio (running / best) after the check.
         """
-        u = self._u_at(t)
-        values = np.asarray(self.dae.observed(t, self.x, self.z, u, self.p, self.d)).ravel()
+        values = self._observed_at(t)
         quality, switch = self.monitor.better(values, params=self.p)
         if switch is None:
             return quality
-        dummies, new_dae, cause = switch
+        self._switch_selection(t, values, *switch)
+        return 1.0
+
+    def _switch_selection(self, t, values, dummies, new_dae, cause):
+        """Continue from the point t (observed `values`) with the selection `dummies` (compiled: new_dae)."""
         named = dict(zip(self.dae.observed_names, values))
         x_new = np.array([named.get(n, 0.0) for n in new_dae.x_names])
         z_guess = np.array([named.get(n, 0.0) for n in new_dae.z_names])
         self._use(new_dae)
         self.x = x_new
-        self.z = solve_algebraic(new_dae, t, x_new, z_guess, u, self.p, self.d)
+        self.z = solve_algebraic(new_dae, t, x_new, z_guess, self._u_at(t), self.p, self.d)
         self.monitor.current = dummies
         self._last_full_check = None
         self.events.append(Event(float(t), "reselection", cause))
         if self.T and self.T[-1] == t:
             self.X[-1], self.Z[-1], self.D[-1] = self.x.copy(), self.z.copy(), new_dae
-        return 1.0
 
 
 def dae_arguments(dae) -> list:
@@ -134,6 +137,13 @@ class SelectionMonitor:
         single, maps = dae.info["_watched"]
         return mapped_in(maps, single, n)
 
+    def whole_branch(self, observed_values, params) -> Verdict:
+        """Whether the running selection holds on the whole branch through this point (`branch.py`):
+        then this monitor would never act, and the run can do without it."""
+        named = dict(zip(self.cm.dae.observed_names, observed_values))
+        values = np.array([named.get(n, 0.0) for n in self.names])
+        return check_branch(self.factory, self.current, values, params, self.HYSTERESIS)
+
     def better(self, observed_values, probe=False, params=None):
         """`better_at` from a vector of every observed value (the compiled model's `observed`)."""
         named = dict(zip(self.cm.dae.observed_names, observed_values))
@@ -163,12 +173,8 @@ class SelectionMonitor:
             other = self.cm.selection(best)
         except MechnetError:
             return q_signed, None              # that choice cannot hold the model's resets: keep going
-        old = _state_names(self.factory, self.current)
-        new = _state_names(self.factory, best)
+        old = state_names(self.factory, self.current)
+        new = state_names(self.factory, best)
         cause = (f"dependent block conditioning {q_now:.2g} vs {q_best:.2g}: states "
                  f"{', '.join(old)} -> {', '.join(new)}")
         return q_now, (best, other, cause)
-
-
-def _state_names(factory, dummies) -> list:
-    return sorted(factory.names[i] for i, j in factory.graph.der.items() if j not in dummies)

@@ -1,0 +1,342 @@
+"""Whole-branch check of a state selection: a one-DOF loop that never needs the monitor.
+
+Why: the selection monitor (`reselection.py`) checks the running selection
+after every integrator piece and restarts IDAS at each cut; on a four-bar that
+is a third of the run. When the constraints are holonomic and do not depend on
+time, every quality the monitor compares is a function of the coordinates
+alone, and a one-DOF mechanism's coordinates stay on one closed curve, its
+assembly branch, whatever the forces and speeds. Tracing that curve once
+(pseudo-arclength continuation: tangent predictor, Newton corrector) and
+finding the running selection regular all round (|quality| ≥ FLOOR, one sign)
+and never beaten by another selection by the hysteresis factor (with MARGIN for
+the spacing of the points) shows the monitor would never act on that branch.
+The run then integrates in one piece, as a hand-written model would.
+
+Anything else (several degrees of freedom, time in the constraints, Jacobians
+that depend on speeds, a curve that does not close within MAX_POINTS) is not
+certified, and the monitor runs as before.
+"""
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..numeric import NumpyCall, dense
+
+FLOOR = 1e-2          # the running selection's |quality| all round the branch (1 ideal, 0 singular)
+MARGIN = 1.02         # on the hysteresis factor, plus the ratio's largest change between two points
+STEP = 0.1            # largest continuation step (coordinates over their nominal values: radians)
+MIN_STEP = 1e-5
+RANK_FLOOR = 1e-3     # |regularity| of the constraints all round the branch (`_continuation_step`)
+MAX_POINTS = 4000     # points on the curve before giving up
+MAX_SELECTIONS = 64   # selections compared at each point, at most
+CHUNK = 32            # points per mapped quality evaluation (one map reused)
+WATCH = 16            # points traced between two checks of the running selection
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What the whole-branch check found; `holds`: the monitor can stay off."""
+
+    holds: bool
+    reason: str
+    points: int = 0
+    worst_quality: float = float("nan")     # min |quality| of the running selection on the branch
+    worst_ratio: float = float("nan")       # min |running quality| / best other quality
+    at: tuple = ()                          # where it failed on the branch (the coordinates, `coordinates`)
+    coordinates: tuple = ()                 # names of the loop's coordinates
+    dummies: frozenset | None = None        # the selection that holds (the running one if it does)
+    states: tuple = ()                      # its states
+
+    def describe(self) -> str:
+        if not self.holds:
+            where = ", ".join(f"{n} = {v:.4g}" for n, v in zip(self.coordinates, self.at))
+            return f"monitor on: {self.reason}" + (f" at {where}" if where else "")
+        return (f"monitor off: states {', '.join(self.states)} hold on the whole branch ({self.points} points, "
+                f"quality >= {self.worst_quality:.2g}, >= {self.worst_ratio:.2g} x any other selection)")
+
+
+class BranchCheck:
+    """The loop's position constraints and the selection Jacobians as functions of its coordinates
+    (built once per selection factory), and the curve traced from a start point."""
+
+    def __init__(self, factory):
+        self.factory = factory
+        self._period_cache = None
+        self.reason = self._analyse()
+
+    # ------------------------------------------------------------------ structure (once)
+    def _analyse(self) -> str | None:
+        f = self.factory
+        graph = f.graph
+        top, top_candidates = f._top_level()
+        levels, h, cand = [], list(top), list(top_candidates)
+        while h:                       # every selection's levels lie within these rows and columns
+            levels.append((tuple(h), tuple(cand)))
+            h = [graph.parent[e] for e in h if graph.parent[e] in graph.parent]
+            cand = [graph.antider[v] for v in cand if graph.antider[v] in graph.antider]
+        roots = set()
+        for rows, _ in levels:
+            for e in rows:
+                while e in graph.parent:
+                    e = graph.parent[e]
+                roots.add(e)
+        roots = sorted(roots)
+        index = {s.element_hash(): k for k, s in enumerate(f.symbols)}
+        params = f._args[2]
+        param_hashes = {s.element_hash() for s in ca.symvar(params)} if params.numel() else set()
+        residuals = ca.vertcat(*f.flat.expand([f.equations[e].residual for e in roots]))
+        if ca.depends_on(residuals, f.flat.time):
+            return "the constraints depend on time"
+        coords = set()
+        for s in ca.symvar(residuals):
+            h_ = s.element_hash()
+            if h_ in param_hashes:
+                continue
+            k = index.get(h_)
+            if k is None or k not in graph.der or k in graph.antider or f.variables[k].kind == "input":
+                return f"the constraints hold {s.name()}, which is not a free position coordinate " \
+                       f"(a driven one, an input, a speed)"
+            coords.add(index[h_])
+        coords = sorted(coords)
+        if len(coords) - len(roots) != 1:
+            return f"{len(coords) - len(roots)} degrees of freedom in the constraints (checked: one)"
+        q = ca.vertcat(*[f.symbols[v] for v in coords])
+        blocks = []
+        for rows, cols in levels:
+            exprs = f.flat.expand([f.equations[e].residual for e in rows])
+            jac = ca.jacobian(ca.vertcat(*exprs), ca.vertcat(*[f.symbols[v] for v in cols]))
+            if ca.depends_on(jac, f.flat.time):
+                return "a selection Jacobian depends on time"
+            for s in ca.symvar(jac):
+                if s.element_hash() not in param_hashes and index.get(s.element_hash()) not in coords:
+                    return f"a selection Jacobian depends on {s.name()}, not only on the coordinates"
+            blocks.append(ca.vec(jac))
+        phi_q = ca.jacobian(residuals, q)
+        shape = ca.vertcat(ca.vec(phi_q), *blocks)
+        self.coords, self.n_roots = coords, len(roots)
+        closure = ca.Function("branch_residual", [q, params], [residuals, phi_q])
+        self.residual = NumpyCall(dense(closure))
+        self.shape = NumpyCall(dense(ca.Function("branch_shape", [q, params], [shape])))
+        # the coordinates the curve's shape depends on: the rest enter linearly with constant coefficients
+        self.shaping = np.array([ca.depends_on(shape, f.symbols[v]) for v in coords])
+        self.nominal = np.array([abs(f.variables[v].nominal) or 1.0 for v in coords])
+        self.step = NumpyCall(dense(_continuation_step(closure, self.nominal, params)))
+        return None
+
+    def _periods(self, p) -> np.ndarray:
+        """2π for a coordinate the constraint and selection Jacobians are periodic in (an angle), else 0.
+        The curve is the integral curve of the null space of Φ_q, so Jacobians that repeat make it
+        repeat (a gear's constraint, linear in a crank angle, does not spoil the crank's period)."""
+        rng = np.random.default_rng(7)
+        period = np.full(len(self.coords), 2 * np.pi)
+        for _ in range(2):
+            y = rng.uniform(-np.pi, np.pi, len(self.coords)) * self.nominal
+            base = self.shape(y, p)[0].ravel()
+            for k in range(len(self.coords)):
+                shifted = y.copy()
+                shifted[k] += 2 * np.pi
+                if not np.allclose(self.shape(shifted, p)[0].ravel(), base, rtol=1e-9,
+                                   atol=1e-9 * (1 + np.abs(base).max())):
+                    period[k] = 0.0
+        return period
+
+    # ------------------------------------------------------------------ the curve (per start)
+    def trace(self, q0, p, watch=None) -> tuple[np.ndarray | None, str, tuple]:
+        """The points of the closed curve through q0 (rows), or None, why not and where. Every WATCH
+        points the new stretch must keep the constraints regular, and pass `watch(points) -> reason`
+        (None: it does)."""
+        if self._period_cache is None or not np.array_equal(self._period_cache[0], p):
+            self._period_cache = (p.copy(), self._periods(p))
+        period, scale = self._period_cache[1], self.nominal
+        y0 = np.asarray(q0, dtype=float) / scale
+        r0, J0 = self.residual(y0 * scale, p)
+        if np.abs(r0).max() > 1e-8 * (1 + np.abs(y0 * scale).max()):
+            return None, "the start point does not close the constraints", tuple(q0)
+        wrap = (period / scale)[self.shaping]
+
+        shaping = self.shaping
+
+        def passes_start(a, b) -> bool:
+            """Whether the chord a -> b passes the start point (shaping coordinates, angles modulo 2π)
+            within a quarter step: the curve has closed."""
+            da = (a - y0)[shaping]
+            da = np.where(wrap > 0, da - wrap * np.round(da / np.where(wrap > 0, wrap, 1.0)), da)
+            chord = (b - a)[shaping]
+            s_ = float(np.clip(-(da @ chord) / max(chord @ chord, 1e-300), 0.0, 1.0))
+            return float(np.linalg.norm(da + s_ * chord)) < 0.25 * STEP
+
+        t = np.linalg.svd(J0 * scale)[2][-1]
+        points, augmented = [y0], [np.vstack([J0 * scale, t])]
+        sign, checked = None, 0
+        y, h, travelled, closed = y0, STEP, 0.0, False
+        while not closed:
+            if len(points) >= MAX_POINTS:
+                return None, f"the curve did not close within {MAX_POINTS} points", tuple(y * scale)
+            # h is measured in the coordinates that shape the curve (a geared motor's angle does not)
+            along = max(float(np.linalg.norm(t[shaping])), 1e-3)
+            y_new, last, t_new, A = (a.ravel() if a.shape[1] == 1 else a for a in self.step(y, t, h / along, p))
+            moved = float(np.linalg.norm((y_new - y)[shaping]))
+            if not (last[0] < 1e-10 and moved < 1.5 * h and t_new @ t > np.cos(0.2)):
+                h /= 2                  # Newton failed, left the curve, or the curve turns sharply here
+                if h < MIN_STEP:
+                    return None, "the continuation stalled", tuple(y * scale)
+                continue
+            travelled += moved
+            closed = travelled > 2 * STEP and passes_start(y, y_new)
+            y, t = y_new, t_new
+            points.append(y)
+            augmented.append(A)
+            h = min(2 * h, STEP)
+            if closed or len(points) - checked > WATCH:
+                stretch = np.array(points[checked:]) * scale
+                A = np.array(augmented[checked:])
+                regular = np.linalg.det(A) / np.maximum(np.prod(np.linalg.norm(A[:, :-1], axis=2), axis=1), 1e-300)
+                sign = np.sign(regular[0]) if sign is None else sign
+                if np.any(np.sign(regular) != sign):
+                    k = int(np.argmax(np.sign(regular) != sign))
+                    return None, "the branch crosses another (a change point)", tuple(stretch[k])
+                k = int(np.argmin(np.abs(regular)))
+                if abs(regular[k]) < RANK_FLOOR:
+                    return None, f"the constraints nearly lose rank ({abs(regular[k]):.1e})", tuple(stretch[k])
+                why = watch(stretch) if watch is not None else None
+                if why:
+                    return None, why[0], tuple(why[1])
+                checked = len(points) - 1
+        return np.array(points) * scale, "", ()
+
+
+def _continuation_step(closure, scale, params, newton=4) -> ca.Function:
+    """One pseudo-arclength step in coordinates over their nominal values, y -> y + h·t corrected
+    onto Φ = 0 in the plane normal to t (`newton` iterations, unrolled), as one CasADi function.
+    Returns the point, its last Newton correction, the unit tangent there (oriented along t) and
+    the augmented matrix [Φ_y; tᵀ]. Its determinant over the row norms of Φ_y is the signed
+    regularity: ±1 for orthogonal rows, 0 where the constraints lose rank; at a branch point (two
+    branches crossing: a parallelogram folding flat) it changes sign, the tangent does not."""
+    n = scale.size
+    y, t, h = ca.SX.sym("y", n), ca.SX.sym("t", n), ca.SX.sym("h")
+    S = ca.diag(ca.DM(scale))
+
+    def at(point):
+        r, J = closure(S @ point, params)
+        return r, J @ S
+
+    predicted = y + h * t
+    point, correction = predicted, ca.SX(0)
+    for _ in range(newton):
+        r, J = at(point)
+        dy = -ca.solve(ca.vertcat(J, t.T), ca.vertcat(r, t.T @ (point - predicted)))
+        point, correction = point + dy, ca.norm_inf(dy)
+    r, J = at(point)
+    tangent = ca.solve(ca.vertcat(J, t.T), ca.vertcat(ca.SX.zeros(r.numel()), 1))
+    tangent = tangent / ca.norm_2(tangent)
+    last = ca.fmax(correction, ca.norm_inf(r))
+    return ca.Function("branch_step", [y, t, h, params], [point, last, tangent, ca.vertcat(J, tangent.T)])
+
+
+def selections(factory) -> list:
+    """Every valid dummy set (walking the levels like `choose`), at most MAX_SELECTIONS, or None."""
+    graph = factory.graph
+    found = []
+
+    def walk(h, candidates, dummies):
+        if len(found) > MAX_SELECTIONS:
+            return
+        if not h:
+            found.append(frozenset(dummies))
+            return
+        cand = [v for v in candidates if any(v in graph.inc[e] for e in h)]
+        below = [graph.parent[e] for e in h if graph.parent[e] in graph.parent]
+        for chosen in itertools.combinations(cand, len(h)):
+            walk(below, [graph.antider[v] for v in chosen if graph.antider[v] in graph.antider], dummies | set(chosen))
+
+    walk(*factory._top_level(), set())
+    return found if len(found) <= MAX_SELECTIONS else None
+
+
+def _qualities(factory, dummies, Q, coords, p) -> np.ndarray:
+    """Signed quality of one selection at the curve points (rows of Q)."""
+    levels = factory.levels_for(dummies)
+    out = np.empty(len(Q))
+    for start in range(0, len(Q), CHUNK):
+        part = Q[start: start + CHUNK]
+        values = np.zeros((CHUNK, len(factory.names)))
+        values[: len(part)][:, coords] = part
+        values[len(part):, coords] = part[-1]            # padding: one map size for every chunk
+        out[start: start + len(part)] = factory.quality_batch(levels, values, p)[: len(part)]
+    return out
+
+
+def check_branch(factory, preferred, values, p, hysteresis) -> Verdict:
+    """A selection that holds on the whole branch through the point `values` (all of
+    `factory.names`) at parameters p — the monitor would never switch away from it nor see a change
+    point — `preferred` if it does. Cached on the factory per start point, parameters and preference."""
+    check = factory.__dict__.get("_branch_check")
+    if check is None:
+        check = factory.__dict__["_branch_check"] = BranchCheck(factory)
+    if check.reason is not None:
+        return Verdict(False, check.reason)
+    p = np.asarray(p, dtype=float).ravel()
+    q0 = np.asarray(values, dtype=float)[check.coords]
+    key = (preferred, tuple(np.round(p, 12)), tuple(np.round(q0, 10)), hysteresis)
+    cache = factory.__dict__.setdefault("_branch_verdicts", {})
+    if key not in cache:
+        cache[key] = _verdict(factory, check, preferred, q0, p, hysteresis)
+    return cache[key]
+
+
+def _verdict(factory, check, preferred, q0, p, hysteresis) -> Verdict:
+    names = tuple(factory.names[v] for v in check.coords)
+    alternatives = selections(factory)
+    if alternatives is None:
+        return Verdict(False, f"more than {MAX_SELECTIONS} selections to compare")
+    if preferred not in alternatives:
+        alternatives.insert(0, preferred)
+    viable = {d: 0.0 for d in alternatives}      # selections regular so far, with their sign
+    failed = {}
+
+    def watch(stretch):
+        """Drop the selections that turn singular on this stretch; stop when none is left."""
+        for d in list(viable):
+            q = _qualities(factory, d, stretch, check.coords, p)
+            sign = viable[d] or np.sign(q[0])
+            bad = (np.sign(q) != sign) | (np.abs(q) < FLOOR)
+            if np.any(bad):
+                k = int(np.argmax(bad))
+                failed[d] = (f"the running selection's quality falls to {abs(q[k]):.2g}", stretch[k])
+                del viable[d]
+            else:
+                viable[d] = sign
+        return None if viable else failed[preferred]
+
+    Q, why, at = check.trace(q0, p, watch)
+    if Q is None:
+        return Verdict(False, why, at=at, coordinates=names)
+    quality = {d: np.abs(_qualities(factory, d, Q, check.coords, p)) for d in alternatives}
+    found = {}
+    for d in viable:
+        best_other = np.max([quality[o] for o in alternatives if o != d] or [np.zeros(len(Q))], axis=0)
+        ratios = np.minimum(quality[d] / np.maximum(best_other, 1e-300), 10.0)     # 10: far from switching
+        # between two points the ratio may dip below both: allow for as much as it moves between neighbours
+        margin = MARGIN + float(np.max(np.abs(np.diff(ratios)) / ratios[1:]))
+        k = int(np.argmin(ratios))
+        found[d] = (ratios[k] >= margin * hysteresis, float(ratios[k]), k)
+    holding = [d for d in found if found[d][0]]
+    if not holding:
+        if preferred in failed:
+            reason, point = failed[preferred]
+            return Verdict(False, reason, points=len(Q), at=tuple(point), coordinates=names)
+        _, ratio, k = found[preferred]
+        return Verdict(False, f"another selection is {1 / ratio:.2g} x better", points=len(Q), at=tuple(Q[k]),
+                       worst_ratio=ratio, coordinates=names)
+    chosen = preferred if preferred in holding else max(holding, key=lambda d: found[d][1])
+    return Verdict(True, "", len(Q), float(quality[chosen].min()), found[chosen][1], coordinates=names,
+                   dummies=chosen, states=tuple(state_names(factory, chosen)))
+
+
+def state_names(factory, dummies) -> list:
+    """The states of a selection: the derivatives that are not dummies, by their antiderivatives."""
+    return sorted(factory.names[i] for i, j in factory.graph.der.items() if j not in dummies)
