@@ -198,24 +198,37 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     stats["wall_time"] = _time.perf_counter() - wall
     stats["method"], stats["plugin"] = method, plugin
     T = np.array(run.T)
-    values = np.empty((T.size, len(dae.observed_names)))
-    k = 0
-    while k < T.size:                      # rows integrated with the same selection, observed together
-        j = k
-        while j + 1 < T.size and run.D[j + 1] is run.D[k]:
-            j += 1
-        sel = run.D[k]
-        X = np.array(run.X[k: j + 1]).reshape(j + 1 - k, -1)
-        Z = np.array(run.Z[k: j + 1]).reshape(j + 1 - k, -1)
-        values[k: j + 1] = _observe(sel, T[k: j + 1], X, Z, plan, p, d)
-        k = j + 1
-    column = {n: c for c, n in enumerate(dae.observed_names)}
+
+    def observe() -> np.ndarray:
+        values = np.empty((T.size, len(dae.observed_names)))
+        k = 0
+        while k < T.size:                  # rows integrated with the same selection, observed together
+            j = k
+            while j + 1 < T.size and run.D[j + 1] is run.D[k]:
+                j += 1
+            X = np.array(run.X[k: j + 1]).reshape(j + 1 - k, -1)
+            Z = np.array(run.Z[k: j + 1]).reshape(j + 1 - k, -1)
+            values[k: j + 1] = _observe(run.D[k], T[k: j + 1], X, Z, plan, p, d)
+            k = j + 1
+        return values
+
     final = run.D[-1] if run.D else dae
-    X = values[:, [column[n] for n in final.x_names if n in column]] \
-        if all(n in column for n in final.x_names) else np.array(run.X)
-    Z = np.zeros((T.size, 0))
-    result = Result(T, values, dae.observed_names, dae.units, stats, X, Z, final.x_names,
-                    events=run.events, failure=run.failure,
+    known = {}
+    if T.size and all(sel is final for sel in run.D):
+        # one selection throughout: its states and algebraics are the run's own; every other name is
+        # computed when first asked for (most callers read a few names of hundreds)
+        X = np.array(run.X).reshape(T.size, -1)
+        Z = np.array(run.Z).reshape(T.size, -1)
+        known = {**{n: X[:, k] for k, n in enumerate(final.x_names)},
+                 **{n: Z[:, k] for k, n in enumerate(final.z_names)}}
+        observed = observe
+    else:
+        observed = observe()
+        column = {n: c for c, n in enumerate(dae.observed_names)}
+        X = observed[:, [column[n] for n in final.x_names if n in column]] \
+            if all(n in column for n in final.x_names) else np.array(run.X)
+    result = Result(T, observed, dae.observed_names, dae.units, stats, X, np.zeros((T.size, 0)), final.x_names,
+                    events=run.events, failure=run.failure, known=known,
                     initial={"fixed": init.fixed, "free_states": init.free_states, "residual": init.residual})
     if run.failure is not None:
         run.failure.result = result

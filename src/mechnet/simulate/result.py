@@ -18,10 +18,14 @@ def unknown_name(name: str, known, what: str = "variable") -> UnknownNameError:
 
 @dataclass
 class Result:
-    """Simulation output. `res[name]` is a numpy array on the grid `res.t` for every dotted name."""
+    """Simulation output. `res[name]` is a numpy array on the grid `res.t` for every dotted name.
+
+    `res.values` holds every name (a column each). It is computed when first needed: a name in
+    `known` (the states and algebraics of a run with one selection) is read without it.
+    """
 
     t: np.ndarray
-    values: np.ndarray                  # (len(t), len(names))
+    observed: object                    # (len(t), len(names)) array, or the function computing it
     names: tuple
     units: dict
     stats: dict
@@ -31,9 +35,18 @@ class Result:
     events: list = field(default_factory=list)
     failure: Optional[Exception] = None
     initial: dict = field(default_factory=dict)     # how the start point was found
+    known: dict = field(default_factory=dict, repr=False)   # name -> values known without `observed`
 
     def __post_init__(self):
         self._column = {n: k for k, n in enumerate(self.names)}
+        self._values = None if callable(self.observed) else np.asarray(self.observed)
+
+    @property
+    def values(self) -> np.ndarray:
+        """Every name's values, (len(t), len(names))."""
+        if self._values is None:
+            self._values = self.observed()
+        return self._values
 
     @property
     def success(self) -> bool:
@@ -42,6 +55,8 @@ class Result:
     def __getitem__(self, name: str) -> np.ndarray:
         if name not in self._column:
             raise unknown_name(name, self.names)
+        if self._values is None and name in self.known:
+            return self.known[name]
         return self.values[:, self._column[name]]
 
     def __contains__(self, name) -> bool:
