@@ -157,3 +157,52 @@ def test_verdict_is_cached_per_start_point(start):
     assert len(cache) == size and again.stats["selection"] == first.stats["selection"]
     cm.simulate(0.2, rtol=1e-6, atol=1e-8, start={"joint_a.phi": start + 0.5})
     assert len(cache) == size + 1
+
+
+def test_five_bar_with_two_degrees_of_freedom_is_left_to_the_monitor():
+    # A planar five-bar (two cranks from ground pivots 0.5 m apart, two couplers) has two degrees of
+    # freedom: its coordinates fill a surface, not a curve, and the check says so. The run closes every
+    # pin within 10·(rtol·L + atol), L = 0.5 m, rtol 1e-8, atol 1e-10, over 0.5 s under gravity.
+    import mechnet as mn
+    from mechnet.components import multibody as mb
+
+    a1, b1, b2, a2, e = 0.2, 0.4, 0.4, 0.2, 0.5
+    th1, th5 = 1.2, 1.8
+    B = a1 * np.array([np.cos(th1), np.sin(th1)])
+    Dp = np.array([e, 0.0]) + a2 * np.array([np.cos(th5), np.sin(th5)])
+    # C on both circles |C - B| = b1, |C - D| = b2, above the line B-D
+    dist = np.linalg.norm(Dp - B)
+    along = (b1 ** 2 - b2 ** 2 + dist ** 2) / (2 * dist)
+    u = (Dp - B) / dist
+    Cp = B + along * u + np.sqrt(b1 ** 2 - along ** 2) * np.array([-u[1], u[0]])
+    abs_angles = [th1, np.arctan2(*(Cp - B)[::-1]), np.arctan2(*(Dp - Cp)[::-1]), th5 + np.pi]
+    rel = [abs_angles[0]] + [abs_angles[k] - abs_angles[k - 1] for k in range(1, 4)] + [-abs_angles[3]]
+
+    m = mn.Model("five_bar")
+    world = m.add(mb.World(name="world", g=[0.0, -9.81, 0.0]))
+    ground = m.add(mb.FixedTranslation(name="ground", r=[e, 0, 0]))
+    m.connect(world.frame_b, ground.frame_a)
+    joints = []
+    for k, name in enumerate("abcde"):
+        fixed = {"phi_start": rel[k], "w_start": 0.0} if name in "ae" else {"phi_guess": rel[k]}
+        joints.append(m.add(mb.Revolute(name=f"joint_{name}", n=[0, 0, 1], **fixed)))
+    m.connect(world.frame_b, joints[0].frame_a)
+    previous = joints[0].frame_b
+    for k, L in enumerate((a1, b1, b2, a2)):
+        rod = m.add(mb.FixedTranslation(name=f"rod{k}", r=[L, 0, 0]))
+        body = m.add(mb.Body(name=f"body{k}", m=1.0, r_cm=[L / 2, 0, 0],
+                             I=np.diag([0.0, L ** 2 / 12, L ** 2 / 12])))
+        m.connect(previous, rod.frame_a)
+        m.connect(rod.frame_a, body.frame_a)
+        m.connect(rod.frame_b, joints[k + 1].frame_a)
+        previous = joints[k + 1].frame_b
+    m.connect(previous, ground.frame_b)
+
+    cm = m.compile()
+    assert cm.n_states == 4
+    res = cm.simulate(0.5, rtol=1e-8, atol=1e-10)
+    assert res.success, res.failure
+    assert res.stats["selection"] == "monitor on: 2 degrees of freedom in the constraints (checked: one)"
+    gap = max(np.max(np.abs(res[f"joint_{j}.frame_a.r_0[{i}]"] - res[f"joint_{j}.frame_b.r_0[{i}]"]))
+              for j in "abcde" for i in range(3))
+    assert gap <= 10 * (1e-8 * 0.5 + 1e-10)

@@ -341,7 +341,13 @@ class SelectionFactory:
         return self._watched
 
     def can_degrade(self) -> bool:
-        """False when every selection Jacobian is constant (a gear): the choice never needs revisiting."""
+        """False when every selection Jacobian is constant (a gear): the choice never needs revisiting.
+        Found once (every run asks)."""
+        if not hasattr(self, "_can_degrade"):
+            self._can_degrade = self._jacobians_vary()
+        return self._can_degrade
+
+    def _jacobians_vary(self) -> bool:
         graph = self.graph
         h = [e for e in range(len(self.equations)) if e not in graph.diff and e in graph.parent]
         rows = set()
