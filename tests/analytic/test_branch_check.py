@@ -93,9 +93,9 @@ def test_one_piece_run_matches_the_monitored_run(monkeypatch):
     settings = dict(rtol=1e-10, atol=1e-12, n_out=201)
     one = scene().simulate(2.0, **settings)
     assert one.stats["selection"].startswith("monitor off") and one.stats["segments"] == 1
-    monkeypatch.setattr(branch, "check_branch", lambda *args: branch.Verdict(False, "forced on by the test"))
-    from mechnet.simulate import reselection
-    monkeypatch.setattr(reselection, "check_branch", lambda *args: branch.Verdict(False, "forced on by the test"))
+    from mechnet.simulate.reselection import SelectionMonitor
+    monkeypatch.setattr(SelectionMonitor, "whole_branch",
+                        lambda self, values, params: branch.Verdict(False, "forced on by the test"))
     watched = scene().simulate(2.0, **settings)
     assert watched.stats["selection"] == "monitor on: forced on by the test" and watched.stats["segments"] > 1
     assert one.success and watched.success
