@@ -206,3 +206,65 @@ def test_five_bar_with_two_degrees_of_freedom_is_left_to_the_monitor():
     gap = max(np.max(np.abs(res[f"joint_{j}.frame_a.r_0[{i}]"] - res[f"joint_{j}.frame_b.r_0[{i}]"]))
               for j in "abcde" for i in range(3))
     assert gap <= 10 * (1e-8 * 0.5 + 1e-10)
+
+
+def _phase_loop(r, reset=False):
+    """A one-DOF loop of two angles (a, b) with the closure b − r·a + 2 sin(b − a) + 0.5 sin a = c0, driven
+    by a torque on a (masses 0.01, light damping). Its Jacobians are 2π-periodic in both angles; the
+    closure itself only for r = 1: otherwise the phase b − a drifts by about 2π(r − 1)/(1 + 2 cos(b − a))
+    per turn, towards 2π/3, where ∂Φ/∂b vanishes. `reset`: a state event takes a back by one turn."""
+    import casadi as ca
+    import mechnet as mn
+
+    phase = 1.3
+    c0 = phase + 2.0 * np.sin(phase)
+
+    class PhaseLoop(mn.Component):
+        a = mn.State(priority="default")
+        b = mn.State(priority="default")
+        wa = mn.State(priority="default")
+        wb = mn.State(priority="default")
+        lam = mn.Var()
+
+        def equations(self):
+            s = self.b - self.a
+            return [mn.Eq(mn.der(self.a), self.wa), mn.Eq(mn.der(self.b), self.wb),
+                    mn.Eq(0.01 * mn.der(self.wa), 2.0 - 0.02 * self.wa
+                          - self.lam * (-r - 2.0 * ca.cos(s) + 0.5 * ca.cos(self.a))),
+                    mn.Eq(0.01 * mn.der(self.wb), -0.02 * self.wb - self.lam * (1.0 + 2.0 * ca.cos(s))),
+                    mn.Eq(self.b - r * self.a + 2.0 * ca.sin(s) + 0.5 * ca.sin(self.a) - c0, 0.0, "closure")]
+
+        def events(self):
+            return (mn.When(self.a - 4.0, reset={self.a: self.a - 2 * np.pi}, direction="rising"),) if reset else ()
+
+    m = mn.Model("phase_loop")
+    m.add(PhaseLoop(name="d", a_start=0.0, b_guess=phase, wa_start=0.0))
+    return m
+
+
+def test_a_branch_that_does_not_close_is_left_to_the_monitor():
+    # r = 1.004: each turn of a moves the phase by ~1e-2 rad, so after one turn the curve passes within a
+    # step of its start without closing. Only landing on the start (to 1e-8) counts as closed: refused, and
+    # the monitor re-selects as the phase nears 2π/3. Closure within 10·(rtol·scale + atol), scale 10 rad
+    # (a turns ~3 times), rtol 1e-8, atol 1e-10, over 2 s.
+    res = _phase_loop(1.004).compile().simulate(2.0, rtol=1e-8, atol=1e-10, n_out=401)
+    assert res.stats["selection"].startswith("monitor on: the branch does not close"), res.stats["selection"]
+    assert res.success, res.failure
+    a, b = res["d.a"], res["d.b"]
+    closure = b - 1.004 * a + 2.0 * np.sin(b - a) + 0.5 * np.sin(a) - (1.3 + 2.0 * np.sin(1.3))
+    assert np.max(np.abs(closure)) < 10 * (1e-8 * 10.0 + 1e-10)
+
+
+def test_the_same_loop_closing_exactly_runs_in_one_piece():
+    # r = 1: the closure is periodic too, the curve lands on its start after one turn, and it holds.
+    res = _phase_loop(1.0).compile().simulate(2.0, rtol=1e-8, atol=1e-10, n_out=401)
+    assert res.stats["selection"].startswith("monitor off"), res.stats["selection"]
+    assert res.success and res.stats["segments"] == 1
+
+
+def test_a_state_event_that_sets_a_coordinate_keeps_the_monitor():
+    # An event that writes a loop coordinate could put the run on another branch than the one checked.
+    res = _phase_loop(1.0, reset=True).compile().simulate(2.0, rtol=1e-8, atol=1e-10, n_out=401)
+    assert res.stats["selection"] == "monitor on: a state event resets d.a: the run may jump to another branch"
+    assert res.success and sum(e.kind == "state" for e in res.events) >= 3        # a passes 4 rad, is set back
+    assert np.max(res["d.a"]) < 4.0 + 1e-6

@@ -35,6 +35,7 @@ MAX_POINTS = 4000     # points on the curve before giving up
 MAX_SELECTIONS = 64   # selections compared at each point, at most
 CHUNK = 32            # points per mapped quality evaluation (one map reused)
 WATCH = 16            # points traced between two checks of the running selection
+MAX_VERDICTS = 256    # verdicts cached per selection factory (start points, parameters)
 
 
 @dataclass(frozen=True)
@@ -186,7 +187,14 @@ class BranchCheck:
                     return None, "the continuation stalled", tuple(y * scale)
                 continue
             travelled += moved
-            closed = travelled > 2 * STEP and passes_start(y, y_new)
+            if travelled > 2 * STEP and passes_start(y, y_new):
+                # closed only if it lands on the start (angles shifted by whole turns) to Newton accuracy:
+                # a phase that drifts by less than the step per turn would otherwise pass after one turn
+                gap = self._gap_to_start(y, t, y0, wrap, p)
+                if not gap < 1e-8:
+                    return None, f"the branch does not close: one turn ends {gap:.1e} from its start " \
+                                 f"(a drifting phase)", tuple(y_new * scale)
+                closed = True
             y, t = y_new, t_new
             points.append(y)
             augmented.append(A)
@@ -207,6 +215,23 @@ class BranchCheck:
                     return None, why[0], tuple(why[1])
                 checked = len(points) - 1
         return np.array(points) * scale, "", ()
+
+
+    def _gap_to_start(self, y, t, y0, wrap, p) -> float:
+        """Distance (shaping coordinates, relative) between the start, shifted by the whole turns the
+        curve has made, and the curve's point in the plane through it normal to the tangent (shaping
+        part): 0 when the curve closes."""
+        shaping = self.shaping
+        d = (y - y0)[shaping]
+        turns = np.where(wrap > 0, np.round(d / np.where(wrap > 0, wrap, 1.0)), 0.0)
+        target = y0.copy()
+        target[shaping] += turns * wrap
+        normal = np.zeros_like(t)
+        normal[shaping] = t[shaping] / max(float(np.linalg.norm(t[shaping])), 1e-300)
+        landed, last, _, _ = (a.ravel() for a in self.step(y, normal, float(normal @ (target - y)), p))
+        if not last[0] < 1e-10:
+            return float("inf")
+        return float(np.linalg.norm((landed - target)[shaping]) / (1.0 + np.linalg.norm(target[shaping])))
 
 
 def _continuation_step(closure, scale, params, newton=4) -> ca.Function:
@@ -270,22 +295,43 @@ def _qualities(factory, dummies, Q, coords, p) -> np.ndarray:
     return out
 
 
-def check_branch(factory, preferred, values, p, hysteresis) -> Verdict:
+def check_branch(factory, preferred, values, p, hysteresis, reset=()) -> Verdict:
     """A selection that holds on the whole branch through the point `values` (all of
     `factory.names`) at parameters p — the monitor would never switch away from it nor see a change
-    point — `preferred` if it does. Cached on the factory per start point, parameters and preference."""
+    point — `preferred` if it does. `reset`: names of the states a state event can set (a coordinate
+    among them could move the run to another branch). Cached on the factory per start point,
+    parameters and preference (at most MAX_VERDICTS, the oldest dropped first)."""
     check = factory.__dict__.get("_branch_check")
     if check is None:
         check = factory.__dict__["_branch_check"] = BranchCheck(factory)
     if check.reason is not None:
         return Verdict(False, check.reason)
+    jumped = [factory.names[v] for v in check.coords if factory.names[v] in set(reset)]
+    if jumped:
+        return Verdict(False, f"a state event resets {', '.join(jumped)}: the run may jump to another branch")
     p = np.asarray(p, dtype=float).ravel()
     q0 = np.asarray(values, dtype=float)[check.coords]
     key = (preferred, tuple(np.round(p, 12)), tuple(np.round(q0, 10)), hysteresis)
     cache = factory.__dict__.setdefault("_branch_verdicts", {})
     if key not in cache:
+        if len(cache) >= MAX_VERDICTS:
+            del cache[next(iter(cache))]
         cache[key] = _verdict(factory, check, preferred, q0, p, hysteresis)
     return cache[key]
+
+
+def reset_states(dae) -> tuple:
+    """Names of the states some state event of the compiled model sets (its transitions), found once."""
+    if "_reset_states" not in dae.info:
+        names = set()
+        if dae.transition:
+            args = [ca.SX.sym(k, m) for k, m in (("t", 1), ("x", dae.x.numel()), ("z", dae.z.numel()),
+                                                 ("u", dae.u.numel()), ("p", dae.p.numel()), ("d", dae.d.numel()))]
+            for transition in dae.transition:
+                x_plus = transition(*args)[0]
+                names.update(n for k, n in enumerate(dae.x_names) if not ca.is_equal(x_plus[k], args[1][k], 2))
+        dae.info["_reset_states"] = tuple(sorted(names))
+    return dae.info["_reset_states"]
 
 
 def _verdict(factory, check, preferred, q0, p, hysteresis) -> Verdict:

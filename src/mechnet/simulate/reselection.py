@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core.errors import MechnetError
 from ..numeric import mapped_in
-from .branch import Verdict, check_branch, state_names
+from .branch import Verdict, check_branch, reset_states, state_names
 from .events import Event
 from .initialize import solve_algebraic
 
@@ -138,11 +138,12 @@ class SelectionMonitor:
         return mapped_in(maps, single, n)
 
     def whole_branch(self, observed_values, params) -> Verdict:
-        """Whether the running selection holds on the whole branch through this point (`branch.py`):
-        then this monitor would never act, and the run can do without it."""
+        """A selection that holds on the whole branch through this point (`branch.py`), the running
+        one if it does: with it this monitor would never act, and the run can do without it."""
         named = dict(zip(self.cm.dae.observed_names, observed_values))
         values = np.array([named.get(n, 0.0) for n in self.names])
-        return check_branch(self.factory, self.current, values, params, self.HYSTERESIS)
+        resets = {name for dae in (self.cm.dae, *self.cm._selections.values()) for name in reset_states(dae)}
+        return check_branch(self.factory, self.current, values, params, self.HYSTERESIS, resets)
 
     def better(self, observed_values, probe=False, params=None):
         """`better_at` from a vector of every observed value (the compiled model's `observed`)."""

@@ -46,7 +46,14 @@ class Result:
         """Every name's values, (len(t), len(names))."""
         if self._values is None:
             self._values = self.observed()
+            self.observed = self._values          # lets the run (integrators, raw arrays) go
         return self._values
+
+    def __getstate__(self):
+        """Pickled with every name computed (the function computing them is the run's)."""
+        state = dict(self.__dict__)
+        state["_values"] = state["observed"] = self.values
+        return state
 
     @property
     def success(self) -> bool:

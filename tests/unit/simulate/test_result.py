@@ -65,3 +65,13 @@ def test_a_run_that_switches_selection_computes_every_name_at_once():
     assert res.known == {} and res._values is not None
     # the point mass stays on its circle: x² + y² = L² within 10·(rtol·L + atol), L = 1 m
     assert np.max(np.abs(np.hypot(res["p.x"], res["p.y"]) - 1.0)) < 10 * (1e-8 * 1.0 + 1e-10)
+
+
+def test_result_pickles_with_every_name():
+    # A result goes to other processes (multiprocessing sweeps, joblib caches): pickled, it carries every
+    # name's values, computed then, and equals the original exactly.
+    import pickle
+    res = oscillator().compile().simulate(0.5, rtol=1e-8, atol=1e-10, n_out=51)
+    copy = pickle.loads(pickle.dumps(res))
+    assert copy.names == res.names and np.array_equal(copy.values, res.values)
+    assert np.array_equal(copy["spring.tau"], res["spring.tau"]) and copy.stats == res.stats
