@@ -147,16 +147,27 @@ def test_driven_crank_is_not_checked():
 
 
 @pytest.mark.parametrize("start", [0.3, 2.0])
-def test_verdict_is_cached_per_start_point(start):
-    # Rerunning from the same start reuses the traced branch; another start point gets its own.
+def test_a_branch_is_traced_once_for_all_its_start_points(start):
+    # Rerunning from the same start reuses the verdict. Another start on the same branch (the crank
+    # 0.5 rad further) is recognised on the traced curve (its landing there is itself, to 1e-8) and
+    # traced no more; a start on the crossed assembly (Freudenstein's other root) is traced anew.
     cm = four_bar().compile()
-    first = cm.simulate(0.2, rtol=1e-6, atol=1e-8, start={"joint_a.phi": start})
-    cache = cm.selection_factory._branch_verdicts
-    size = len(cache)
-    again = cm.simulate(0.2, rtol=1e-6, atol=1e-8, start={"joint_a.phi": start})
-    assert len(cache) == size and again.stats["selection"] == first.stats["selection"]
-    cm.simulate(0.2, rtol=1e-6, atol=1e-8, start={"joint_a.phi": start + 0.5})
-    assert len(cache) == size + 1
+
+    def run(theta, branch_sign=+1):
+        th3, th4 = four_bar_angles(A, B, C, D, theta, branch_sign)
+        return cm.simulate(0.2, rtol=1e-6, atol=1e-8, start={"joint_a.phi": theta},
+                           guess={"joint_b.phi": th3 - theta, "joint_d.phi": th4, "joint_c.phi": th4 - th3})
+
+    first = run(start)
+    factory = cm.selection_factory
+    curves = lambda: sum(len(c) for c in factory._branch_curves.values())       # noqa: E731
+    assert curves() == 1 and first.stats["selection"].startswith("monitor off")
+    assert run(start).stats["selection"] == first.stats["selection"]
+    moved = run(start + 0.5)
+    assert curves() == 1 and moved.stats["selection"] == first.stats["selection"]
+    crossed = run(start, -1)
+    assert abs(_wrap(crossed["joint_d.phi"][0] - four_bar_angles(A, B, C, D, start, -1)[1])) < 1e-9
+    assert curves() == 2 and crossed.stats["selection"].startswith("monitor off")
 
 
 def test_five_bar_with_two_degrees_of_freedom_is_left_to_the_monitor():

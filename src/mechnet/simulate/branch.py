@@ -217,6 +217,23 @@ class BranchCheck:
         return np.array(points) * scale, "", ()
 
 
+    def on_curve(self, q0, Q, p) -> bool:
+        """Whether the start q0 lies on the closed curve traced as Q (rows): the nearest point's landing
+        in the plane through q0 normal to the curve is q0 itself, to Newton accuracy."""
+        if self._period_cache is None or not np.array_equal(self._period_cache[0], p):
+            self._period_cache = (p.copy(), self._periods(p))
+        scale, shaping = self.nominal, self.shaping
+        wrap = (self._period_cache[1] / scale)[shaping]
+        y0, Y = np.asarray(q0, dtype=float) / scale, Q / scale
+        d = (Y - y0)[:, shaping]
+        d = np.where(wrap > 0, d - wrap * np.round(d / np.where(wrap > 0, wrap, 1.0)), d)
+        k = int(np.argmin(np.linalg.norm(d, axis=1)))
+        if np.linalg.norm(d[k]) > STEP:
+            return False
+        _, J = self.residual(Y[k] * scale, p)
+        tangent = np.linalg.svd(J * scale)[2][-1]
+        return self._gap_to_start(Y[k], tangent, y0, wrap, p) < 1e-8
+
     def _gap_to_start(self, y, t, y0, wrap, p) -> float:
         """Distance (shaping coordinates, relative) between the start, shifted by the whole turns the
         curve has made, and the curve's point in the plane through it normal to the tangent (shaping
@@ -316,7 +333,14 @@ def check_branch(factory, preferred, values, p, hysteresis, reset=()) -> Verdict
     if key not in cache:
         if len(cache) >= MAX_VERDICTS:
             del cache[next(iter(cache))]
-        cache[key] = _verdict(factory, check, preferred, q0, p, hysteresis)
+        # a start on a curve traced before (another start point of the same branch) shares its verdict
+        curves = factory.__dict__.setdefault("_branch_curves", {}).setdefault(key[:2] + key[3:], [])
+        known = next((verdict for Q, verdict in curves if check.on_curve(q0, Q, p)), None)
+        if known is None:
+            known, Q = _verdict(factory, check, preferred, q0, p, hysteresis)
+            if known.holds and len(curves) < MAX_VERDICTS:
+                curves.append((Q, known))
+        cache[key] = known
     return cache[key]
 
 
@@ -334,11 +358,12 @@ def reset_states(dae) -> tuple:
     return dae.info["_reset_states"]
 
 
-def _verdict(factory, check, preferred, q0, p, hysteresis) -> Verdict:
+def _verdict(factory, check, preferred, q0, p, hysteresis) -> tuple[Verdict, np.ndarray | None]:
+    """The verdict, and the traced curve when it closed."""
     names = tuple(factory.names[v] for v in check.coords)
     alternatives = selections(factory)
     if alternatives is None:
-        return Verdict(False, f"more than {MAX_SELECTIONS} selections to compare")
+        return Verdict(False, f"more than {MAX_SELECTIONS} selections to compare"), None
     if preferred not in alternatives:
         alternatives.insert(0, preferred)
     viable = {d: 0.0 for d in alternatives}      # selections regular so far, with their sign
@@ -360,7 +385,7 @@ def _verdict(factory, check, preferred, q0, p, hysteresis) -> Verdict:
 
     Q, why, at = check.trace(q0, p, watch)
     if Q is None:
-        return Verdict(False, why, at=at, coordinates=names)
+        return Verdict(False, why, at=at, coordinates=names), None
     quality = {d: np.abs(_qualities(factory, d, Q, check.coords, p)) for d in alternatives}
     found = {}
     for d in viable:
@@ -374,13 +399,13 @@ def _verdict(factory, check, preferred, q0, p, hysteresis) -> Verdict:
     if not holding:
         if preferred in failed:
             reason, point = failed[preferred]
-            return Verdict(False, reason, points=len(Q), at=tuple(point), coordinates=names)
+            return Verdict(False, reason, points=len(Q), at=tuple(point), coordinates=names), Q
         _, ratio, k = found[preferred]
         return Verdict(False, f"another selection is {1 / ratio:.2g} x better", points=len(Q), at=tuple(Q[k]),
-                       worst_ratio=ratio, coordinates=names)
+                       worst_ratio=ratio, coordinates=names), Q
     chosen = preferred if preferred in holding else max(holding, key=lambda d: found[d][1])
     return Verdict(True, "", len(Q), float(quality[chosen].min()), found[chosen][1], coordinates=names,
-                   dummies=chosen, states=tuple(state_names(factory, chosen)))
+                   dummies=chosen, states=tuple(state_names(factory, chosen))), Q
 
 
 def state_names(factory, dummies) -> list:
