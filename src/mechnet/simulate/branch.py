@@ -30,6 +30,7 @@ FLOOR = 1e-2          # the running selection's |quality| all round the branch (
 MARGIN = 1.02         # on the hysteresis factor, plus the ratio's largest change between two points
 STEP = 0.1            # largest continuation step (coordinates over their nominal values: radians)
 MIN_STEP = 1e-5
+TURN = 0.1            # largest turn of the tangent in one step (rad): the curve is resolved between points
 RANK_FLOOR = 1e-3     # |regularity| of the constraints all round the branch (`_continuation_step`)
 MAX_POINTS = 4000     # points on the curve before giving up
 MAX_SELECTIONS = 64   # selections compared at each point, at most
@@ -181,7 +182,7 @@ class BranchCheck:
             along = max(float(np.linalg.norm(t[shaping])), 1e-3)
             y_new, last, t_new, A = (a.ravel() if a.shape[1] == 1 else a for a in self.step(y, t, h / along, p))
             moved = float(np.linalg.norm((y_new - y)[shaping]))
-            if not (last[0] < 1e-10 and moved < 1.5 * h and t_new @ t > np.cos(0.2)):
+            if not (last[0] < 1e-10 and moved < 1.5 * h and t_new @ t > np.cos(TURN)):
                 h /= 2                  # Newton failed, left the curve, or the curve turns sharply here
                 if h < MIN_STEP:
                     return None, "the continuation stalled", tuple(y * scale)
