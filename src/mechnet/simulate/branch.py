@@ -345,20 +345,6 @@ def check_branch(factory, preferred, values, p, hysteresis, reset=()) -> Verdict
     return cache[key]
 
 
-def reset_states(dae) -> tuple:
-    """Names of the states some state event of the compiled model sets (its transitions), found once."""
-    if "_reset_states" not in dae.info:
-        names = set()
-        if dae.transition:
-            args = [ca.SX.sym(k, m) for k, m in (("t", 1), ("x", dae.x.numel()), ("z", dae.z.numel()),
-                                                 ("u", dae.u.numel()), ("p", dae.p.numel()), ("d", dae.d.numel()))]
-            for transition in dae.transition:
-                x_plus = transition(*args)[0]
-                names.update(n for k, n in enumerate(dae.x_names) if not ca.is_equal(x_plus[k], args[1][k], 2))
-        dae.info["_reset_states"] = tuple(sorted(names))
-    return dae.info["_reset_states"]
-
-
 def _verdict(factory, check, preferred, q0, p, hysteresis) -> tuple[Verdict, np.ndarray | None]:
     """The verdict, and the traced curve when it closed."""
     names = tuple(factory.names[v] for v in check.coords)

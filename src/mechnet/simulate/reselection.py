@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core.errors import MechnetError
 from ..numeric import mapped_in
-from .branch import Verdict, check_branch, reset_states, state_names
+from .branch import Verdict, check_branch, state_names
 from .events import Event
 from .initialize import solve_algebraic
 
@@ -179,3 +179,16 @@ class SelectionMonitor:
         cause = (f"dependent block conditioning {q_now:.2g} vs {q_best:.2g}: states "
                  f"{', '.join(old)} -> {', '.join(new)}")
         return q_now, (best, other, cause)
+
+
+def reset_states(dae) -> tuple:
+    """Names of the states some state event of the compiled model sets (its transitions), found once."""
+    if "_reset_states" not in dae.info:
+        names = set()
+        if dae.transition:
+            args = dae_arguments(dae)
+            for transition in dae.transition:
+                x_plus = transition(*args)[0]
+                names.update(n for k, n in enumerate(dae.x_names) if not ca.is_equal(x_plus[k], args[1][k], 2))
+        dae.info["_reset_states"] = tuple(sorted(names))
+    return dae.info["_reset_states"]
