@@ -1,20 +1,22 @@
-"""Whole-branch check of a state selection: a one-DOF loop that never needs the monitor.
+"""Whole-branch check of the state selection: a one-DOF loop that never needs the monitor.
 
 Why: the selection monitor (`reselection.py`) checks the running selection
 after every integrator piece and restarts IDAS at each cut; on a four-bar that
-is a third of the run. When the constraints are holonomic and do not depend on
-time, every quality the monitor compares is a function of the coordinates
+was a third of the run. When the constraints are holonomic and do not depend
+on time, every quality the monitor compares is a function of the coordinates
 alone, and a one-DOF mechanism's coordinates stay on one closed curve, its
 assembly branch, whatever the forces and speeds. Tracing that curve once
-(pseudo-arclength continuation: tangent predictor, Newton corrector) and
-finding the running selection regular all round (|quality| ≥ FLOOR, one sign)
-and never beaten by another selection by the hysteresis factor (with MARGIN for
-the spacing of the points) shows the monitor would never act on that branch.
-The run then integrates in one piece, as a hand-written model would.
+(pseudo-arclength continuation: tangent predictor, Newton corrector) shows
+whether some selection stays regular all round (|quality| ≥ FLOOR, one sign)
+and never loses to another by the hysteresis factor (with MARGIN for the
+spacing of the points), and whether the constraints keep their rank (no
+branch crossing). Such a selection — the running one when it qualifies — is
+one the monitor would never leave: the run switches to it at the start and
+integrates in one piece, as a hand-written model would.
 
 Anything else (several degrees of freedom, time in the constraints, Jacobians
-that depend on speeds, a curve that does not close within MAX_POINTS) is not
-certified, and the monitor runs as before.
+that depend on speeds, a curve that does not land on its start, a state event
+that sets a coordinate) is not certified, and the monitor runs as before.
 """
 from __future__ import annotations
 
