@@ -59,7 +59,8 @@ class Verdict:
         if not self.holds:
             where = ", ".join(f"{n} = {v:.4g}" for n, v in zip(self.coordinates, self.at))
             return f"monitor on: {self.reason}" + (f" at {where}" if where else "")
-        return (f"monitor off: states {', '.join(self.states)} hold on the whole branch ({self.points} points, "
+        states = f"states {', '.join(self.states)}" if self.states else "the selection (no states: motion prescribed)"
+        return (f"monitor off: {states} hold{'s' if not self.states else ''} on the whole branch ({self.points} points, "
                 f"quality >= {self.worst_quality:.2g}, >= {self.worst_ratio:.2g} x any other selection)")
 
 
@@ -101,9 +102,10 @@ class BranchCheck:
             if h_ in param_hashes:
                 continue
             k = index.get(h_)
-            if k is None or k not in graph.der or k in graph.antider or f.variables[k].kind == "input":
-                return f"the constraints hold {s.name()}, which is not a free position coordinate " \
-                       f"(a driven one, an input, a speed)"
+            moves = k is not None and (k in graph.der or k in graph.known_rate)   # known rate: a Speed drive
+            if not moves or k in graph.antider or f.variables[k].kind == "input":
+                return f"the constraints hold {s.name()}, which is not a position coordinate with a rate " \
+                       f"(an input, a speed, or a position given as a function of time)"
             coords.add(index[h_])
         coords = sorted(coords)
         if len(coords) - len(roots) != 1:
