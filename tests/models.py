@@ -84,7 +84,8 @@ def bouncing_ball(h0=1.0, e=0.8) -> mn.Model:
 def _prescribes_motion(drive) -> bool:
     """A Speed or Position source fixes the crank's motion itself (no start values on the joint then)."""
     from mechnet.components import rotational as rot
-    return isinstance(drive, (rot.Speed, rot.Position))
+    from mechnet.components import translational as tr
+    return isinstance(drive, (rot.Speed, rot.Position, tr.Speed, tr.Position))
 
 
 def four_bar(a=0.2, b=0.6, c=0.5, d=0.6, theta2=0.3, drive=None, masses=(1.0, 2.0, 1.5), g=9.81,
@@ -159,7 +160,8 @@ def slider_crank(r=0.1, l=0.35, theta0=0.4, crank_drive=None, piston_drive=None,
     (a Prismatic from the world). Closed-form piston position x = r cos θ + √(l² − r² sin² θ).
 
     `crank_drive` is connected to the crank joint's axis flange (a Speed source, a torque...),
-    `piston_drive` to the slider's axis flange (a translational force); both become `use_flange=True`.
+    `piston_drive` to the slider's axis flange (a translational force or a Speed source); both become
+    `use_flange=True`.
     """
     import numpy as np
     from mechnet.components import multibody as mb
@@ -171,7 +173,8 @@ def slider_crank(r=0.1, l=0.35, theta0=0.4, crank_drive=None, piston_drive=None,
     m = mn.Model(name)
     world = m.add(mb.World(name="world", g=[0.0, -g, 0.0]))
     crank_j = m.add(mb.Revolute(name="joint_a", n=[0, 0, 1], use_flange=crank_drive is not None,
-                                **({"phi_guess": theta0} if _prescribes_motion(crank_drive) else
+                                **({"phi_guess": theta0} if _prescribes_motion(crank_drive)
+                                   or _prescribes_motion(piston_drive) else
                                    {"phi_start": theta0, "w_start": 0.0})))
     rod_j = m.add(mb.Revolute(name="joint_b", n=[0, 0, 1], phi_guess=beta - theta0))
     wrist = m.add(mb.Revolute(name="joint_c", n=[0, 0, 1], phi_guess=-beta))

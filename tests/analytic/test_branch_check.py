@@ -292,3 +292,18 @@ def test_a_state_event_that_sets_a_coordinate_keeps_the_monitor():
     assert res.stats["selection"] == "monitor on: a state event resets d.a: the run may jump to another branch"
     assert res.success and sum(e.kind == "state" for e in res.events) >= 3        # a passes 4 rad, is set back
     assert np.max(res["d.a"]) < 4.0 + 1e-6
+
+
+def test_piston_pushed_at_constant_speed_cannot_pass_its_dead_centre():
+    # A Speed source moving the piston at 0.2 m/s: the piston would have to turn back at the dead centres
+    # (x = l + r = 0.45 m), so the check refuses the branch (the crank would need an infinite speed there),
+    # naming the prescribed coordinate; until then the run follows the closed form within 1e-8 m.
+    from mechnet.components import translational as tr
+    r, l = 0.1, 0.35
+    cm = slider_crank(r, l, piston_drive=tr.Speed(name="pusher", v_ref=Constant(0.2))).compile()
+    res = cm.simulate(0.015, rtol=1e-8, atol=1e-10)
+    assert res.stats["selection"].startswith("monitor on: slider.s, turned at a prescribed rate, would have to "
+                                             "turn back on the branch (a dead point) at "), res.stats["selection"]
+    assert res.success
+    x = res["slider.s"]
+    assert np.max(np.abs(x - slider_crank_x(r, l, res["joint_a.phi"]))) < 1e-8

@@ -129,6 +129,7 @@ class BranchCheck:
         self.shape = NumpyCall(dense(ca.Function("branch_shape", [q, params], [shape])))
         # the coordinates the curve's shape depends on: the rest enter linearly with constant coefficients
         self.shaping = np.array([ca.depends_on(shape, f.symbols[v]) for v in coords])
+        self.driven = np.array([v in graph.known_rate for v in coords])     # turned at a prescribed rate
         self.nominal = np.array([abs(f.variables[v].nominal) or 1.0 for v in coords])
         self.step = NumpyCall(dense(_continuation_step(closure, self.nominal, params)))
         return None
@@ -177,7 +178,7 @@ class BranchCheck:
 
         t = np.linalg.svd(J0 * scale)[2][-1]
         points, augmented = [y0], [np.vstack([J0 * scale, t])]
-        sign, checked = None, 0
+        sign, heading, checked = None, None, 0
         y, h, travelled, closed = y0, STEP, 0.0, False
         while not closed:
             if len(points) >= MAX_POINTS:
@@ -186,7 +187,7 @@ class BranchCheck:
             along = max(float(np.linalg.norm(t[shaping])), 1e-3)
             y_new, last, t_new, A = (a.ravel() if a.shape[1] == 1 else a for a in self.step(y, t, h / along, p))
             moved = float(np.linalg.norm((y_new - y)[shaping]))
-            if not (last[0] < 1e-10 and moved < 1.5 * h and t_new @ t > np.cos(TURN)):
+            if not (last[0] < 1e-10 and moved < 1.5 * h and _turn(t, t_new, shaping) < TURN):
                 h /= 2                  # Newton failed, left the curve, or the curve turns sharply here
                 if h < MIN_STEP:
                     return None, "the continuation stalled", tuple(y * scale)
@@ -215,6 +216,19 @@ class BranchCheck:
                 k = int(np.argmin(np.abs(regular)))
                 if abs(regular[k]) < RANK_FLOOR:
                     return None, f"the constraints nearly lose rank ({abs(regular[k]):.1e})", tuple(stretch[k])
+                tangents = A[:, -1, :]
+                if self.driven.any():
+                    # a coordinate turned at a constant rate must move one way all round: where its
+                    # tangent component vanishes (a dead point for that drive) the motion cannot go on
+                    along = tangents[:, self.driven]
+                    heading = np.sign(along[0]) if heading is None else heading
+                    stuck = np.any((np.sign(along) != heading) | (np.abs(along) < FLOOR * np.linalg.norm(
+                        tangents[:, shaping], axis=1, keepdims=True)), axis=1)
+                    if stuck.any():
+                        k = int(np.argmax(stuck))
+                        names = ", ".join(self.factory.names[v] for v, d in zip(self.coords, self.driven) if d)
+                        return None, f"{names}, turned at a prescribed rate, would have to turn back on the " \
+                                     f"branch (a dead point)", tuple(stretch[k])
                 why = watch(stretch) if watch is not None else None
                 if why:
                     return None, why[0], tuple(why[1])
@@ -254,6 +268,14 @@ class BranchCheck:
         if not last[0] < 1e-10:
             return float("inf")
         return float(np.linalg.norm((landed - target)[shaping]) / (1.0 + np.linalg.norm(target[shaping])))
+
+
+def _turn(t, t_new, shaping) -> float:
+    """Angle between two tangents' parts in the coordinates that shape the curve (a geared motor's angle
+    dominates the whole tangent and would hide the turn)."""
+    a, b = t[shaping], t_new[shaping]
+    cos = float(a @ b) / max(float(np.linalg.norm(a) * np.linalg.norm(b)), 1e-300)
+    return float(np.arccos(np.clip(cos, -1.0, 1.0)))
 
 
 def _continuation_step(closure, scale, params, newton=4) -> ca.Function:
@@ -339,7 +361,10 @@ def check_branch(factory, preferred, values, p, hysteresis, reset=()) -> Verdict
         if len(cache) >= MAX_VERDICTS:
             del cache[next(iter(cache))]
         # a start on a curve traced before (another start point of the same branch) shares its verdict
-        curves = factory.__dict__.setdefault("_branch_curves", {}).setdefault(key[:2] + key[3:], [])
+        by_key = factory.__dict__.setdefault("_branch_curves", {})
+        if key[:2] + key[3:] not in by_key and len(by_key) >= MAX_VERDICTS:
+            del by_key[next(iter(by_key))]
+        curves = by_key.setdefault(key[:2] + key[3:], [])
         known = next((verdict for Q, verdict in curves if check.on_curve(q0, Q, p)), None)
         if known is None:
             known, Q = _verdict(factory, check, preferred, q0, p, hysteresis)
