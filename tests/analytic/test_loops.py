@@ -159,3 +159,21 @@ def test_massless_crank_and_rocker_swing_the_coupler_as_a_simple_pendulum():
     assert errors[1] < errors[0] / 10 and errors[2] < errors[1] / 10 and errors[2] < 1e-7, errors
     E = res["energy.total"]
     assert np.max(np.abs(E - E[0])) < 1e-6 * 1.0 * g * L
+
+
+def test_kinematic_four_bar_through_the_corners_of_a_speed_ramp():
+    # The crank's speed ramps from 1 to 6 rad/s over 0.2..0.7 s (Ramp(5, 0.5)): its acceleration jumps at
+    # both corners, where the run restarts. Before the ramp took its right-hand slope at the upper corner
+    # (0.7 - 0.2 < 0.5 in floating point) IDAS failed there. Crank angle against the closed-form
+    # integral of the ramp, rocker against Freudenstein, over 1 s at rtol 1e-10, atol 1e-11: within 1e-8 rad.
+    from mechnet.components.signals import Ramp
+    cm = four_bar(drive=rot.Speed(name="motor", w_ref=Ramp(5.0, 0.5, offset=1.0, start_time=0.2),
+                                  phi_start=0.3)).compile()
+    t = np.linspace(0.0, 1.0, 201)
+    res = cm.simulate(1.0, rtol=1e-10, atol=1e-11, t_out=t)
+    assert res.success, res.failure
+    tau = np.clip(t - 0.2, 0.0, 0.5)
+    th2 = 0.3 + t + 10.0 * tau ** 2 / 2 + 5.0 * np.maximum(t - 0.7, 0.0)
+    assert np.max(np.abs(res["joint_a.phi"] - th2)) < 1e-8
+    _, th4 = four_bar_angles(A, B, C, D, th2)
+    assert np.max(np.abs(_wrap(res["joint_d.phi"] - th4))) < 1e-8

@@ -46,6 +46,18 @@ def test_signals_are_differentiable_in_time():
         assert float(d(1.0)) == pytest.approx(slope, abs=1e-14)
 
 
+def test_ramp_takes_the_right_hand_slope_at_its_corners():
+    # A time event restarts the integrator exactly at a corner (events() gives start_time + duration);
+    # from there the slope after the corner must hold, although 0.7 - 0.2 < 0.5 in floating point.
+    t = ca.SX.sym("t")
+    ramp = Ramp(5.0, 0.5, offset=1.0, start_time=0.2)
+    start, end = ramp.events()
+    d = ca.Function("d", [t], [ca.jacobian(ramp.expr(t), t)])
+    y = ca.Function("y", [t], [ramp.expr(t)])
+    assert float(d(start)) == 10.0 and float(d(end)) == 0.0 and float(d(0.5 * (start + end))) == 10.0
+    assert float(y(end)) == 6.0 and float(y(start)) == 1.0
+
+
 @pytest.mark.parametrize("times", [[0.0, 1.0, 1.0], [0.0, 2.0, 1.0]])
 def test_table_with_non_increasing_times_is_rejected(times):
     with pytest.raises(mn.ParameterError, match=r"strictly increasing.*time\[1\]"):

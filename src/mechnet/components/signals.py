@@ -101,8 +101,11 @@ class Ramp(Signal):
         self.start_time = _number("Ramp", "start_time", start_time)
 
     def expr(self, time):
-        tau = _clamp(time - self.start_time, 0.0, self.duration)
-        return self.offset + self.height * tau / self.duration
+        """Time is compared with the corners themselves, not time − start_time with the duration:
+        0.7 − 0.2 < 0.5 in floating point, so a restart at the upper corner took the rising slope."""
+        start, end = self.start_time, self.start_time + self.duration
+        rising = self.offset + self.height * (time - start) / self.duration
+        return ca.if_else(time < start, self.offset, ca.if_else(time >= end, self.offset + self.height, rising))
 
     def events(self):
         return (self.start_time, self.start_time + self.duration)
