@@ -152,26 +152,27 @@ class BranchCheck:
         return period
 
     # ------------------------------------------------------------------ the curve (per start)
+    def _wrap(self, p) -> np.ndarray:
+        """Period of each shaping coordinate over its nominal value (0: not an angle), per parameters."""
+        if self._period_cache is None or not np.array_equal(self._period_cache[0], p):
+            self._period_cache = (p.copy(), (self._periods(p) / self.nominal)[self.shaping])
+        return self._period_cache[1]
+
     def trace(self, q0, p, watch=None) -> tuple[np.ndarray | None, str, tuple]:
         """The points of the closed curve through q0 (rows), or None, why not and where. Every WATCH
         points the new stretch must keep the constraints regular, and pass `watch(points) -> reason`
         (None: it does)."""
-        if self._period_cache is None or not np.array_equal(self._period_cache[0], p):
-            self._period_cache = (p.copy(), self._periods(p))
-        period, scale = self._period_cache[1], self.nominal
+        scale, shaping, wrap = self.nominal, self.shaping, self._wrap(p)
         y0 = np.asarray(q0, dtype=float) / scale
         r0, J0 = self.residual(y0 * scale, p)
         if np.abs(r0).max() > 1e-8 * (1 + np.abs(y0 * scale).max()):
             return None, "the start point does not close the constraints", tuple(q0)
-        wrap = (period / scale)[self.shaping]
-
-        shaping = self.shaping
 
         def passes_start(a, b) -> bool:
             """Whether the chord a -> b passes the start point (shaping coordinates, angles modulo 2π)
             within a quarter step: the curve has closed."""
             da = (a - y0)[shaping]
-            da = np.where(wrap > 0, da - wrap * np.round(da / np.where(wrap > 0, wrap, 1.0)), da)
+            da = da - _turns(da, wrap) * wrap
             chord = (b - a)[shaping]
             s_ = float(np.clip(-(da @ chord) / max(chord @ chord, 1e-300), 0.0, 1.0))
             return float(np.linalg.norm(da + s_ * chord)) < 0.25 * STEP
@@ -239,13 +240,10 @@ class BranchCheck:
     def on_curve(self, q0, Q, p) -> bool:
         """Whether the start q0 lies on the closed curve traced as Q (rows): the nearest point's landing
         in the plane through q0 normal to the curve is q0 itself, to Newton accuracy."""
-        if self._period_cache is None or not np.array_equal(self._period_cache[0], p):
-            self._period_cache = (p.copy(), self._periods(p))
-        scale, shaping = self.nominal, self.shaping
-        wrap = (self._period_cache[1] / scale)[shaping]
+        scale, shaping, wrap = self.nominal, self.shaping, self._wrap(p)
         y0, Y = np.asarray(q0, dtype=float) / scale, Q / scale
         d = (Y - y0)[:, shaping]
-        d = np.where(wrap > 0, d - wrap * np.round(d / np.where(wrap > 0, wrap, 1.0)), d)
+        d = d - _turns(d, wrap) * wrap
         k = int(np.argmin(np.linalg.norm(d, axis=1)))
         if np.linalg.norm(d[k]) > STEP:
             return False
@@ -258,16 +256,19 @@ class BranchCheck:
         curve has made, and the curve's point in the plane through it normal to the tangent (shaping
         part): 0 when the curve closes."""
         shaping = self.shaping
-        d = (y - y0)[shaping]
-        turns = np.where(wrap > 0, np.round(d / np.where(wrap > 0, wrap, 1.0)), 0.0)
         target = y0.copy()
-        target[shaping] += turns * wrap
+        target[shaping] += _turns((y - y0)[shaping], wrap) * wrap
         normal = np.zeros_like(t)
         normal[shaping] = t[shaping] / max(float(np.linalg.norm(t[shaping])), 1e-300)
         landed, last, _, _ = (a.ravel() for a in self.step(y, normal, float(normal @ (target - y)), p))
         if not last[0] < 1e-10:
             return float("inf")
         return float(np.linalg.norm((landed - target)[shaping]) / (1.0 + np.linalg.norm(target[shaping])))
+
+
+def _turns(d, wrap) -> np.ndarray:
+    """Whole periods in the differences d (0 where a coordinate has no period)."""
+    return np.where(wrap > 0, np.round(d / np.where(wrap > 0, wrap, 1.0)), 0.0)
 
 
 def _turn(t, t_new, shaping) -> float:

@@ -23,6 +23,14 @@ class InputPlan:
     def key(self) -> tuple:
         return tuple((k, t.tobytes(), v.tobytes()) for k, (t, v) in sorted(self.varying.items()))
 
+    def at(self, ts) -> np.ndarray:
+        """Every input at each of the times ts, one column per time (linear between samples)."""
+        ts = np.asarray(ts, dtype=float).ravel()
+        U = np.tile(self.constant.reshape(-1, 1), ts.size)
+        for k, (times, values) in self.varying.items():
+            U[k] = np.interp(ts, times, values)
+        return U
+
     def interpolants(self) -> dict:
         return {k: ca.interpolant(f"input_{k}", "linear", [t], v) for k, (t, v) in self.varying.items()}
 

@@ -382,18 +382,11 @@ class _Run(StateEvents, Reselection, ChangePoints):
         return np.asarray(self.dae.observed(t, self.x, self.z, self._u_at(t), self.p, self.d)).ravel()
 
     def _u_at(self, t):
-        u = self.plan.constant.copy()
-        for k, (times, values) in self.plan.varying.items():
-            u[k] = float(np.interp(t, times, values))
-        return u
+        return self.plan.at(t)[:, 0]
 
     def _inputs_at(self, ts):
         """The inputs at each of the times ts, one column per time."""
-        ts = np.asarray(ts, dtype=float).ravel()
-        U = np.tile(self.plan.constant.reshape(-1, 1), ts.size)
-        for k, (times, values) in self.plan.varying.items():
-            U[k] = np.interp(ts, times, values)
-        return U
+        return self.plan.at(ts)
 
     def _segment(self, points) -> bool:
         ok, message = self._attempt(points)
@@ -699,9 +692,7 @@ def _observe(dae, T, X, Z, plan, p, d) -> np.ndarray:
     n = T.size
     if n == 0:
         return np.zeros((0, len(dae.observed_names)))
-    U = np.tile(plan.constant.reshape(-1, 1), n)
-    for k, (times, values) in plan.varying.items():
-        U[k] = np.interp(T, times, values)
+    U = plan.at(T)
     observed = mapped_in(dae.info.setdefault("_observed_maps", {}), dae.observed, n)
     y, = observed(T.reshape(1, -1), X.T, Z.T, U, np.tile(p.reshape(-1, 1), n), np.tile(d.reshape(-1, 1), n))
     return y.T
