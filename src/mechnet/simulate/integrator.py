@@ -116,9 +116,40 @@ class _Integrators:
         if dae.z.numel():
             spec["z"] = zs
             spec["alg"] = dae.alg(*args)
+            if sym is ca.SX:              # ode and alg share the loop's trigonometry: one elimination for both
+                spec["ode"], spec["alg"] = ca.cse([spec["ode"], spec["alg"]])
         opts = dict(self.extra, reltol=self.rtol, abstol=self.atol, max_num_steps=max_steps or self.max_steps,
                     disable_internal_warnings=True, show_eval_warnings=False)
+        opts["common_options"] = jacobian_options(self.cm, dae, self.plugin, self.extra)
         return ca.integrator("F", self.plugin, spec, 0.0 if t0_real is None else float(t0_real), list(tau), opts)
+
+
+JACOBIAN_CHOICE_MAX = 50_000     # residual instructions × unknowns: above it (a 10-link chain's ODE) comparing costs
+                                 # more than it can save in one run, and forward and reverse cost the same there
+
+
+def jacobian_options(cm, dae, plugin: str, extra: dict) -> dict:
+    """How the integrator differentiates the residual for its Newton matrix: the cheaper of forward and
+    reverse mode, counted once per selection. CasADi's default picks forward mode for a loop's residual,
+    whose few state rows hold most of the work: reverse mode halves that Jacobian (slider-crank 3161 ->
+    1713 instructions, four-bar 4445 -> 2204; docs/benchmarks.md). Functional iteration (Adams) needs
+    no Jacobian."""
+    if plugin == "cvodes" and extra.get("nonlinear_solver_iteration") == "functional":
+        return {}
+    key = ("jacobian_options", id(dae))
+    if key not in cm._integrators:
+        size = (dae.ode.n_instructions() + dae.alg.n_instructions()) * (dae.x.numel() + dae.z.numel())
+        choice = {}
+        if size <= JACOBIAN_CHOICE_MAX:
+            args = [dae.t, dae.x, dae.z, dae.u, dae.p, dae.d]
+            res, unknowns = ca.vertcat(dae.ode(*args), dae.alg(*args)), ca.vertcat(dae.x, dae.z)
+
+            def cost(opts):
+                return ca.Function("newton_matrix", args, [ca.jacobian(res, unknowns, opts)]).n_instructions()
+            if cost({"allow_forward": False}) < cost({}):
+                choice = {"allow_forward": False}
+        cm._integrators[key] = choice
+    return cm._integrators[key]
 
 
 def _call(F, xs, zs, p):
@@ -360,8 +391,8 @@ class _Run(StateEvents, Reselection, ChangePoints):
     def _select_for_branch(self, t):
         """Run without the monitor when a selection holds on the whole branch (`branch.py`), switching
         to it first if it is not the running one; else check the start, and monitor the run."""
-        values = self._observed_at(t)
-        verdict = self.monitor.whole_branch(values, self.p)
+        verdict = self.monitor.whole_branch(
+            self.monitor.values_at(self.dae, t, self.x, self.z, self._u_at(t), self.p, self.d), self.p)
         if verdict.holds and verdict.dummies != self.monitor.current:
             try:
                 other = self.cm.selection(verdict.dummies)
@@ -369,7 +400,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
                 verdict = Verdict(False, f"states {', '.join(verdict.states)} cannot hold the model's resets")
             else:
                 old = state_names(self.monitor.factory, self.monitor.current)
-                self._switch_selection(t, values, verdict.dummies, other,
+                self._switch_selection(t, self._observed_at(t), verdict.dummies, other,
                                        f"whole-branch selection: states {', '.join(old)} -> "
                                        f"{', '.join(verdict.states)}")
         self.stats["selection"] = verdict.describe()

@@ -15,7 +15,7 @@ import casadi as ca
 import numpy as np
 
 from ..core.errors import MechnetError
-from ..numeric import mapped_in
+from ..numeric import NumpyCall, dense, mapped_in
 from .branch import Verdict, check_branch, state_names
 from .events import Event
 from .initialize import solve_algebraic
@@ -137,11 +137,21 @@ class SelectionMonitor:
         single, maps = dae.info["_watched"]
         return mapped_in(maps, single, n)
 
-    def whole_branch(self, observed_values, params) -> Verdict:
-        """A selection that holds on the whole branch through this point (`branch.py`), the running
-        one if it does: with it this monitor would never act, and the run can do without it."""
-        named = dict(zip(self.cm.dae.observed_names, observed_values))
-        values = np.array([named.get(n, 0.0) for n in self.names])
+    def values_at(self, dae, t, x, z, u, p, d) -> np.ndarray:
+        """The values of `names` at one point of the running selection `dae` (0 for a name it does not
+        observe), without evaluating every observed name; cached per compiled selection."""
+        if "_selection_values" not in dae.info:
+            args = dae_arguments(dae)
+            y = dae.observed(*args)
+            position = {name: k for k, name in enumerate(dae.observed_names)}
+            out = ca.vertcat(*[y[position[n]] if n in position else ca.SX(0) for n in self.names])
+            dae.info["_selection_values"] = NumpyCall(dense(ca.Function("selection_values", args, [out])))
+        return dae.info["_selection_values"](t, x, z, u, p, d)[0].ravel()
+
+    def whole_branch(self, values, params) -> Verdict:
+        """A selection that holds on the whole branch through this point (`values` follow `names`,
+        `values_at`; `branch.py`), the running one if it does: with it this monitor would never act,
+        and the run can do without it."""
         resets = {name for dae in (self.cm.dae, *self.cm._selections.values()) for name in reset_states(dae)}
         return check_branch(self.factory, self.current, values, params, self.HYSTERESIS, resets)
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import difflib
+import functools
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -14,6 +15,12 @@ def unknown_name(name: str, known, what: str = "variable") -> UnknownNameError:
     close = difflib.get_close_matches(name, list(known), n=3)
     hint = f"; did you mean {', '.join(close)}?" if close else ""
     return UnknownNameError(f"{what} {name!r} does not exist in this model{hint}")
+
+
+@functools.lru_cache(maxsize=64)
+def _columns(names: tuple) -> dict:
+    """Name -> column, shared by every result of a compiled model (read-only)."""
+    return {n: k for k, n in enumerate(names)}
 
 
 @dataclass
@@ -38,7 +45,7 @@ class Result:
     known: dict = field(default_factory=dict, repr=False)   # name -> values known without `observed`
 
     def __post_init__(self):
-        self._column = {n: k for k, n in enumerate(self.names)}
+        self._column = _columns(tuple(self.names))
         self._values = None if callable(self.observed) else np.asarray(self.observed)
 
     @property
