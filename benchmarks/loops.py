@@ -63,6 +63,10 @@ import timing  # noqa: E402
 G, T_END, N_OUT, REPEATS = 9.81, 2.0, 201, 7
 RTOLS = (1e-4, 1e-6, 1e-8, 1e-10)
 HAND_EXTRA = (1e-2, 1e-3)      # hand model only: extends its curve to mechnet's larger errors
+SWEEP = tuple(10.0 ** (-2 - k / 4) for k in range(33))     # quarter decades, rtol 1e-2 ... 1e-10, both models
+SWEEP_REPEATS = 3
+LEVELS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7)              # errors (rad) at which the fronts are compared
+TARGET = 1.3
 REF_TOL = 1e-13                # reference: the hand equations as an ODE, CVODES-Adams, rtol = atol
 AGREE_RTOL, AGREE = 1e-10, 3e-7   # rad after ~38 rad of crank travel (8e-9 relative): the setups agree
 FOUR_BAR = dict(a=0.2, b=0.6, c=0.5, d=0.6, theta2=0.3, masses=(1.0, 2.0, 1.5), tau=5.0, damping=0.2)
@@ -223,6 +227,44 @@ def log_interp(err, curve):
     return (math.exp(np.interp(math.log(err), le, lt)), "") if math.log(err) >= le[0] else (None, "")
 
 
+def front(points):
+    """The work-precision front of (error, time) runs: those no other run beats in both, by error."""
+    out = []
+    for err, t in sorted(points):
+        if not out or t < out[-1][1]:
+            out.append((err, t))
+    return out
+
+
+def time_to_reach(err, fr):
+    """A tool's time to reach error `err`: log-log interpolation on its front; (time, '<') when even its
+    least accurate run is more accurate (an upper bound); None below its most accurate run."""
+    le, lt = np.log([p[0] for p in fr]), np.log([p[1] for p in fr])
+    if math.log(err) < le[0]:
+        return None, ""
+    if math.log(err) > le[-1]:
+        return fr[-1][1], "<"
+    return math.exp(np.interp(math.log(err), le, lt)), ""
+
+
+def sweep(cm, F_of, x0, z0, ref):
+    """(error, time) of mechnet and of the hand model at every rtol of SWEEP (best of SWEEP_REPEATS)."""
+    mn_pts, hd_pts = [], []
+    for rtol in SWEEP:
+        atol = atol_for(rtol)
+
+        def simulate():
+            return cm.simulate(T_END, rtol=rtol, atol=atol, n_out=N_OUT)
+        simulate()
+        t_mn, res = best_of(simulate, SWEEP_REPEATS)
+        if res.success:
+            mn_pts.append((float(np.abs(res["joint_a.phi"] - ref).max()), t_mn))
+        F = F_of(rtol, atol)
+        t_hd, hd = best_of(lambda: crank(F, x0, z0), SWEEP_REPEATS)
+        hd_pts.append((float(np.abs(hd - ref).max()), t_hd))
+    return mn_pts, hd_pts
+
+
 def bench(name, build_hand, rtols):
     grid = np.linspace(0.0, T_END, N_OUT)
     cm = mechnet_model(name).compile()
@@ -271,9 +313,10 @@ def bench(name, build_hand, rtols):
         print(f"  rtol {rtol:.0e}: mechnet {t_mn:.3f} s (monitor forced on {t_nm:.3f} s), hand {t_hd:.4f} s", flush=True)
     for row in rows:
         row["eq"], row["eq_nm"] = log_interp(row["err_mn"], curve), log_interp(row["err_nm"], curve)
+    points = sweep(cm, lambda rtol, atol: integrator(dae, grid, "idas", reltol=rtol, abstol=atol), x0, z0, ref)
     cost = [ln.strip() for ln in cm.summary().splitlines() if ln.strip().startswith(("states", "algebraics", "cost"))]
     n_alg = ca.Function("alg", [dae["x"], dae["z"]], [dae["alg"]]).n_instructions()
-    return rows, curve, (f"{name}: mechnet {'; '.join(cost)}\n    hand: 2 states, {dae['z'].numel()} algebraics, "
+    return rows, curve, points, (f"{name}: mechnet {'; '.join(cost)}\n    hand: 2 states, {dae['z'].numel()} algebraics, "
                          f"{n_alg} instructions in alg")
 
 
@@ -281,7 +324,7 @@ def ratio_text(t, eq):
     return "n/a" if eq[0] is None else f"{eq[1]}{t / eq[0]:.1f}"
 
 
-def plot(rows, curves, path):
+def plot(rows, curves, path, sweeps):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -294,6 +337,11 @@ def plot(rows, curves, path):
                   label=f"{mech}: mechnet, monitor forced on (diagnostic)")
         ax.loglog([c[1] for c in curve], [c[2] for c in curve], "s--", color=f"C{k}", mfc="none",
                   label=f"{mech}: hand-written CasADi DAE")
+        for who, pts, mark in (("mechnet", sweeps[mech][0], "-"), ("hand", sweeps[mech][1], "--")):
+            fr = front(pts)
+            ax.loglog([p[1] for p in pts], [p[0] for p in pts], ".", color=f"C{k}", alpha=0.35, ms=3)
+            ax.loglog([p[1] for p in fr], [p[0] for p in fr], mark, color=f"C{k}", lw=0.8, alpha=0.6,
+                      label=f"{mech}: {who} front ({len(SWEEP)} rtols)")
         for r in sel:
             ax.annotate(f"{r['rtol']:.0e}", (r["t_mn"], r["err_mn"]), fontsize=7, xytext=(4, 2), textcoords="offset points")
     ax.set(xlabel=f"wall time per simulation [s] (best of {REPEATS})", ylabel="max |crank angle error| [rad]",
@@ -313,9 +361,9 @@ def main():
     rev = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=HERE, capture_output=True, text=True).stdout
     print(f"loops: python {platform.python_version()}, casadi {ca.__version__}, numpy {np.__version__}, "
           f"mechnet {mn.__version__} (git {rev.strip()}); {T_END:g} s, n_out {N_OUT}, IDAS, atol = max(rtol/100, 1e-11)")
-    rows, curves, costs = [], {}, []
+    rows, curves, sweeps, costs = [], {}, {}, []
     for name, build_hand in (("four-bar", hand_four_bar), ("slider-crank", hand_slider_crank)):
-        r, curves[name], cost = bench(name, build_hand, RTOLS[:2] if args.quick else RTOLS)
+        r, curves[name], sweeps[name], cost = bench(name, build_hand, RTOLS[:2] if args.quick else RTOLS)
         rows += r
         costs.append(cost)
 
@@ -334,10 +382,36 @@ def main():
           "its state-selection monitor; forced: mechnet with the monitor forced on (diagnostic, private patch))")
     print("\n".join(costs))
     eq = [(r, r["t_mn"] / r["eq"][0]) for r in rows if r["eq"][0] is not None]
-    print(("MET" if all(v <= 1.3 for _, v in eq) else "MISSED") + ": mechnet's time at equal error within 1.3x of "
-          "the hand-written model: " + ", ".join(f"{r['mech']} {r['rtol']:.0e} {r['eq'][1]}{v:.1f}x" for r, v in eq))
+    print("single runs (the rows above): " + ", ".join(f"{r['mech']} {r['rtol']:.0e} {r['eq'][1]}{v:.1f}x"
+                                                       for r, v in eq))
+    verdicts = print_fronts(sweeps)
+    print(("MET" if verdicts and all(v <= TARGET for v in verdicts) else "MISSED") + f": mechnet's time to reach "
+          f"each error within {TARGET}x of the hand-written model's (work-precision fronts, rtol {SWEEP[0]:.0e} … "
+          f"{SWEEP[-1]:.0e})")
     if not args.no_plot:
-        plot(rows, curves, HERE / "loops.png")
+        plot(rows, curves, HERE / "loops.png", sweeps)
+
+
+def print_fronts(sweeps):
+    """Time to reach each error level on each tool's front; the ratios inside mechnet's measured range."""
+    head = f"{'mechanism':<13}" + "".join(f"{e:>11.0e}" for e in LEVELS)
+    print(f"\ntime to reach a crank-angle error (rad) on the work-precision fronts ({len(SWEEP)} rtols, "
+          f"quarter decades, best of {SWEEP_REPEATS}): mechnet / hand\n{head}\n" + "-" * len(head))
+    verdicts = []
+    for mech, (mn_pts, hd_pts) in sweeps.items():
+        cells = []
+        for level in LEVELS:
+            (t_mn, b_mn), (t_hd, b_hd) = time_to_reach(level, front(mn_pts)), time_to_reach(level, front(hd_pts))
+            if t_mn is None or t_hd is None or b_mn or b_hd:
+                cells.append(f"{'n/a':>11}")        # outside a front's measured range: no verdict
+                continue
+            verdicts.append(t_mn / t_hd)
+            cells.append(f"{t_mn / t_hd:>11.2f}")
+        print(f"{mech:<13}" + "".join(cells))
+    print("(each tool's front: its runs that no other of its runs beats in both time and error; times between "
+          "front points\n interpolated log-log. A single run's error moves by 3-6x between neighbouring rtols, "
+          "so the fronts, not single\n runs, give the time at equal error.)")
+    return verdicts
 
 
 if __name__ == "__main__":

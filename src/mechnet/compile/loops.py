@@ -10,8 +10,11 @@ load the tree, and it adds equations of its own:
   as three angles atan2(skew part, trace part). These are exactly the angle
   for a rotation about one axis and vanish only at M = 1, so there is no
   second branch at π;
-- the balance of the massless edge: R_a f_a + R_b f_b = 0 and
-  R_a t_a + R_b t_b + (r_b − r_a) × R_b f_b = 0;
+- the balance of the massless edge, resolved in frame_a: f_a + R_ab f_b = 0 and
+  t_a + R_ab t_b + R_aᵀ(r_b − r_a) × R_ab f_b = 0 with R_ab = R_aᵀ R_b. In these axes
+  frame_a's cut wrench has coefficient 1 and is solved explicitly (in world axes its
+  coefficient is R_a, and a slider-crank's two zero out-of-plane torques were torn into
+  the integrator's unknowns);
 - for a joint, its drive: s_linᵀ f_a − s_angᵀ t_b = axis load (Modelica's
   tau = −n·frame_b.t, f = −n·frame_b.f).
 
@@ -97,7 +100,7 @@ def closure(e, ka, kb):
     f_b, t_b = e.frame_b._values["f"], e.frame_b._values["t"]
     fb_0 = ca.mtimes(kb.R, f_b)
     balance = ca.vertcat(ca.mtimes(ka.R, f_a) + fb_0,
-                         ca.mtimes(ka.R, t_a) + ca.mtimes(kb.R, t_b) + ca.cross(d, fb_0))
+                         t_a + ca.mtimes(ka.R.T, ca.mtimes(kb.R, t_b) + ca.cross(d, fb_0)))
     drive = None
     if e.dof:
         s_ang, s_lin = e.motion_axes()
