@@ -120,7 +120,7 @@ class _Integrators:
                 spec["ode"], spec["alg"] = ca.cse([spec["ode"], spec["alg"]])
         opts = dict(self.extra, reltol=self.rtol, abstol=self.atol, max_num_steps=max_steps or self.max_steps,
                     disable_internal_warnings=True, show_eval_warnings=False)
-        opts["common_options"] = jacobian_options(self.cm, dae, self.plugin, self.extra)
+        opts["common_options"] = jacobian_options(dae, self.plugin, self.extra)
         return ca.integrator("F", self.plugin, spec, 0.0 if t0_real is None else float(t0_real), list(tau), opts)
 
 
@@ -128,7 +128,7 @@ JACOBIAN_CHOICE_MAX = 50_000     # residual instructions × unknowns: above it (
                                  # more than it can save in one run, and forward and reverse cost the same there
 
 
-def jacobian_options(cm, dae, plugin: str, extra: dict) -> dict:
+def jacobian_options(dae, plugin: str, extra: dict) -> dict:
     """How the integrator differentiates the residual for its Newton matrix: the cheaper of forward and
     reverse mode, counted once per selection. CasADi's default picks forward mode for a loop's residual,
     whose few state rows hold most of the work: reverse mode halves that Jacobian (slider-crank 3161 ->
@@ -136,8 +136,7 @@ def jacobian_options(cm, dae, plugin: str, extra: dict) -> dict:
     no Jacobian."""
     if plugin == "cvodes" and extra.get("nonlinear_solver_iteration") == "functional":
         return {}
-    key = ("jacobian_options", id(dae))
-    if key not in cm._integrators:
+    if "_jacobian_options" not in dae.info:            # per compiled selection, across runs
         size = (dae.ode.n_instructions() + dae.alg.n_instructions()) * (dae.x.numel() + dae.z.numel())
         choice = {}
         if size <= JACOBIAN_CHOICE_MAX:
@@ -148,8 +147,8 @@ def jacobian_options(cm, dae, plugin: str, extra: dict) -> dict:
                 return ca.Function("newton_matrix", args, [ca.jacobian(res, unknowns, opts)]).n_instructions()
             if cost({"allow_forward": False}) < cost({}):
                 choice = {"allow_forward": False}
-        cm._integrators[key] = choice
-    return cm._integrators[key]
+        dae.info["_jacobian_options"] = choice
+    return dae.info["_jacobian_options"]
 
 
 def _call(F, xs, zs, p):
