@@ -67,3 +67,14 @@ def test_planar_square_loop_compiles_with_its_redundant_constraints_dropped():
     cm = _square_loop([[0, 0, 1]] * 4).compile()
     assert cm.n_states == 2
     assert "3 redundant constraint(s) dropped" in cm.summary()
+
+
+def test_a_loop_driven_by_a_speed_input_asks_for_a_smooth_signal():
+    """A Speed source whose w_ref is left as an external input cannot drive a loop: the loop's
+    dependent joints need the crank's acceleration, the derivative of the input. The message names the
+    input (it used to report "24 equations for 25 unknowns": the alias stage merged the source's angle
+    with the crank's and lost the relation between their speeds)."""
+    from mechnet.components import rotational as rot
+    with pytest.raises(mn.StructureError, match=r"external input motor\.w_ref, whose derivative is unknown"):
+        four_bar(drive=rot.Speed(name="motor")).compile()
+

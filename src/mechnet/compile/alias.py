@@ -60,13 +60,12 @@ class _Classes:
         return (v.kind == "input", i in self.der_of, _KIND_RANK.get(v.kind, 0),
                 _PRIORITY_RANK.get(v.priority, 2), -i)
 
-    def union(self, a, b, s) -> bool:
-        """Record a = s * b. Returns False when it cannot be used as an alias."""
-        ra, sa = self.find(a)
-        rb, sb = self.find(b)
+    def _joinable(self, ra, rb) -> bool:
+        """Whether the classes of roots ra and rb may become one, their derivatives included: when two
+        states are aliased their derivatives are too, and if those cannot be (a state's speed equal to
+        an input), the equation must stay an equation, or the relation between the derivatives is lost."""
         if ra == rb:
-            return False
-        rel = s * sb * sa                     # ra = rel * rb
+            return True
         keep, drop = (ra, rb) if self._rank(ra) > self._rank(rb) else (rb, ra)
         kinds = {self.flat.variables[keep].kind, self.flat.variables[drop].kind}
         if self.flat.variables[drop].kind == "input":
@@ -75,6 +74,20 @@ class _Classes:
             return False                      # a state equal to an input: prescribed motion (index reduction)
         if keep in self.const and drop in self.const:
             return False
+        (dj, _), (kj, _) = self.der_of.get(drop, (None, 0)), self.der_of.get(keep, (None, 0))
+        if dj is None or kj is None:
+            return True
+        (rd, _), (rk, _) = self.find(dj), self.find(kj)
+        return (rd in self.const and rk in self.const) or self._joinable(rd, rk)
+
+    def union(self, a, b, s) -> bool:
+        """Record a = s * b. Returns False when it cannot be used as an alias."""
+        ra, sa = self.find(a)
+        rb, sb = self.find(b)
+        if ra == rb or not self._joinable(ra, rb):
+            return False
+        rel = s * sb * sa                     # ra = rel * rb
+        keep, drop = (ra, rb) if self._rank(ra) > self._rank(rb) else (rb, ra)
         self.parent[drop] = keep
         self.sign[drop] = rel
         self.log.append(drop)
