@@ -121,6 +121,8 @@ def test_continuing_a_run_keeps_the_branch_through_a_reselection():
     assert any(e.kind == "reselection" for e in first.events)
     second = cm.simulate(3.0, continue_from=first, rtol=1e-8, atol=1e-8, n_out=251)
     assert second.t[0] == first.t[-1]
+    # it goes on with the states the first run ended with: no switch back and forth at its start
+    assert not [e for e in second.events if e.t == second.t[0]], second.events[:2]
     assert second["p.y"][0] == pytest.approx(first["p.y"][-1], abs=1e-12)
     assert abs(second["p.x"][-1] - full["p.x"][-1]) < 1e-5
 

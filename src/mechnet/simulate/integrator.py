@@ -182,7 +182,6 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     coordinates stay on their branch; the components' own start values do not apply.
     """
     dae = cm.dae
-    method, plugin, extra = _plugin(dae, method)
     t_start, t_end = _check_time(t_start, "t_start"), _check_time(t_end, "t_end")
     rtol, atol = _check_tolerance(rtol, "rtol"), _check_tolerance(atol, "atol")
     if continue_from is not None:
@@ -190,6 +189,10 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
             raise MechnetError(f"continue_from takes a Result, got {type(continue_from).__name__}")
         t_start = continue_from.final_time
         guess = {**continue_from.final_values, **(guess or {})}
+        # on with the states the run ended with (else the monitor switches back to them at t_start)
+        dae = next((sel for sel in (cm.dae, *cm._selections.values())
+                    if sel.x_names == continue_from.state_names), dae)
+    method, plugin, extra = _plugin(dae, method)
     if t_out is not None:
         if n_out is not None:
             raise MechnetError("give either n_out or t_out, not both")
