@@ -65,8 +65,8 @@ class IndexReport:
 def grouped_differentiations(differentiated) -> str:
     """'label ×n' items, '; '-separated. A loop's consecutive closure residuals (labels sharing their
     text up to ', closure residual') are listed once, without their common description:
-    'pin_c (Revolute), loop 1 (...): closure residual position x (frame_a axes) ×2, closure residual
-    position y (frame_a axes) ×2'."""
+    'pin_c (Revolute), loop 1 (...): closure residual position x (world axes) ×2, closure residual
+    position y (world axes) ×2'."""
     groups: list = []                  # (shared head, [(item, original label, n)])
     for label, n in differentiated:
         head, _, item = label.split(" — ")[0].rpartition(", closure residual ")

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import difflib
 import functools
+import types
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -17,10 +18,10 @@ def unknown_name(name: str, known, what: str = "variable") -> UnknownNameError:
     return UnknownNameError(f"{what} {name!r} does not exist in this model{hint}")
 
 
-@functools.lru_cache(maxsize=64)
-def _columns(names: tuple) -> dict:
-    """Name -> column, shared by every result of a compiled model (read-only)."""
-    return {n: k for k, n in enumerate(names)}
+@functools.lru_cache(maxsize=8)
+def _columns(names: tuple):
+    """Name -> column, shared (read-only) by the results of the last few compiled models."""
+    return types.MappingProxyType({n: k for k, n in enumerate(names)})
 
 
 @dataclass
@@ -60,7 +61,12 @@ class Result:
         """Pickled with every name computed (the function computing them is the run's)."""
         state = dict(self.__dict__)
         state["_values"] = state["observed"] = self.values
+        del state["_column"]                      # shared: rebuilt on loading
         return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._column = _columns(tuple(self.names))
 
     @property
     def success(self) -> bool:

@@ -174,5 +174,5 @@ def test_summary_lists_a_loops_differentiated_residuals_once_under_their_loop():
         head = f"{cut} (Revolute), loop "
         assert line.count(head) == 1
         tail = line.split(head)[1].split("(Revolute), loop")[0].split("; dummy derivatives")[0]
-        assert "closure residual position x (frame_a axes) ×2" in tail
+        assert "closure residual position x (world axes) ×2" in tail
         assert "closure residual rotation about z (frame_a axes) ×1" in tail
