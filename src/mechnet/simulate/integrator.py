@@ -18,6 +18,8 @@ step size and the worst variable.
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import re
 import time as _time
 import warnings
@@ -149,6 +151,19 @@ def jacobian_options(dae, plugin: str, extra: dict) -> dict:
                 choice = {"allow_forward": False}
         dae.info["_jacobian_options"] = choice
     return dae.info["_jacobian_options"]
+
+
+@contextlib.contextmanager
+def _solver_messages_muted(mute: bool):
+    """SUNDIALS's error messages reach Python's sys.stderr through CasADi, also when a piece runs out of
+    the step budget it was given on purpose (`_step_budget`): the run retries it shorter, and the
+    message only confused users (the demo's Cartesian pendulum printed six). Muted for those calls;
+    a real failure is reported by the run itself (IntegrationError)."""
+    if not mute:
+        yield
+        return
+    with contextlib.redirect_stderr(io.StringIO()):
+        yield
 
 
 def _call(F, xs, zs, p):
@@ -622,10 +637,12 @@ class _Run(StateEvents, Reselection, ChangePoints):
         with the step limit of `_step_budget`."""
         t0, h = pts[0], pts[-1] - pts[0]
         tau = tuple(float(v) for v in np.round((pts[1:] - t0) / h, 12))   # 12 digits: grid round-off shares keys
-        F = self.integrators.get(tau, self._step_budget(float(np.max(np.diff(pts)))) if budgeted else None)
+        budget = self._step_budget(float(np.max(np.diff(pts)))) if budgeted else None
+        F = self.integrators.get(tau, budget)
         self._failed_at = None
         try:
-            out = _call(F, self.x / self.xn, self.z / self.zn if self.zn.size else np.zeros(0), self.pvec(t0, h))
+            with _solver_messages_muted(budget is not None):
+                out = _call(F, self.x / self.xn, self.z / self.zn if self.zn.size else np.zeros(0), self.pvec(t0, h))
         except RuntimeError as exc:
             # after a failure CasADi's `tcur` is the last output time the solver reached (normalised; 0
             # when it failed before the first): the failure lies after it
