@@ -44,6 +44,33 @@ from .artifacts import FlatEquation, FlatVariable
 from .loops import Loop, closure, closure_equations, direction, loop_edges, reduce_redundancy
 
 
+def _rotation_about_z(angle):
+    c, s = ca.cos(angle), ca.sin(angle)
+    R = ca.SX(3, 3)
+    R[0, 0], R[0, 1], R[1, 0], R[1, 1], R[2, 2] = c, -s, s, c, 1.0
+    return R
+
+
+def _turn_about_z(e, R_rel, parent_turn, forward):
+    """The angle about world z of an edge's child frame when its parent's is `parent_turn` and the edge
+    turns about z too (a revolute about ±z, or a fixed rotation about z); None otherwise."""
+    if parent_turn is None:
+        return None
+    sign = 1.0 if forward else -1.0
+    if e.dof == 1:
+        s_ang, s_lin = (np.asarray(ca.DM(a).full(), dtype=float).ravel() for a in e.motion_axes())
+        if np.any(s_lin) or s_ang[0] or s_ang[1]:
+            return None
+        return parent_turn + sign * s_ang[2] * e.coordinate()
+    R = ca.SX(R_rel)
+    if e.dof or not R.is_constant():
+        return None
+    M = np.asarray(ca.evalf(R).full(), dtype=float)
+    if M[2, 2] != 1.0 or np.any(M[2, :2]) or np.any(M[:2, 2]):
+        return None
+    return parent_turn + sign * float(np.arctan2(M[1, 0], M[0, 0]))
+
+
 @dataclass
 class FrameKinematics:
     """Position, orientation, angular velocity and velocity of a frame origin (world components)."""
@@ -205,12 +232,20 @@ class _Tree:
         self.link_nodes = {None: [root]}
         self.joint = {}                       # link -> (joint, S = (angular, linear) axis, world axes)
         self.coordinates = []
+        turn = {root: ca.SX(0.0)}            # node -> its angle about world z, while every rotation is about z
         for n in self.order[1:]:
             e, forward, p = self.parent[n]
             kp = self.kin[p]
             r_rel, R_rel = e.relative_motion()
             same_axes = e.dof == 0 and ca.SX(R_rel).is_eye()      # a pure translation keeps the orientation
-            if same_axes:
+            turn[n] = turn[p] if same_axes else _turn_about_z(e, R_rel, turn[p], forward)
+            if turn[n] is not None and not same_axes:
+                # a planar chain: the angles add, and R is built from their sum (not as a product of the
+                # joints' rotations, whose expansion grows with every link and every time derivative)
+                R = _rotation_about_z(turn[n])
+                r = kp.r + ca.mtimes(kp.R, r_rel) if forward else kp.r - ca.mtimes(R, r_rel)
+                Ra = kp.R if forward else R
+            elif same_axes:
                 R = kp.R
                 r = kp.r + ca.mtimes(kp.R, r_rel) if forward else kp.r - ca.mtimes(kp.R, r_rel)
                 Ra = kp.R
