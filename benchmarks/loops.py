@@ -242,17 +242,19 @@ def front(points):
     return out
 
 
-def time_to_reach(err, fr):
-    """A tool's time to reach error `err`: log-log interpolation on its front; (time, '<') when even its
-    least accurate run is more accurate (an upper bound); None below its most accurate run (or with no
-    successful run)."""
+def time_to_reach(err, points):
+    """A tool's time to reach error `err` from its runs (error, time): log-log interpolation on its front.
+    Past the front's least accurate point it is that point's time: exact when some run was that
+    inaccurate (it was slower), an upper bound '<' when none was. None below its most accurate run (or
+    with no successful run)."""
+    fr = front(points)
     if not fr:
         return None, ""
     le, lt = np.log([p[0] for p in fr]), np.log([p[1] for p in fr])
     if math.log(err) < le[0]:
         return None, ""
     if math.log(err) > le[-1]:
-        return fr[-1][1], "<"
+        return fr[-1][1], "<" if err > max(p[0] for p in points) else ""
     return math.exp(np.interp(math.log(err), le, lt)), ""
 
 
@@ -399,10 +401,11 @@ def main():
     eq = [(r, r["t_mn"] / r["eq"][0]) for r in rows if r["eq"][0] is not None]
     print("single runs (the rows above): " + ", ".join(f"{r['mech']} {r['rtol']:.0e} {r['eq'][1]}{v:.1f}x"
                                                        for r, v in eq))
-    passed, missed = print_fronts(sweeps)
-    print(("MET" if passed and not missed else "MISSED") + f": mechnet's time to reach each error of "
-          f"{LEVELS[0]:.0e} … {LEVELS[-1]:.0e} rad within {TARGET}x of the hand-written model's (work-precision fronts)"
-          + (": " + ", ".join(missed) if missed else ""))
+    passed, missed, undecided = print_fronts(sweeps)
+    verdict = "MISSED" if missed or not passed else "UNDECIDED" if undecided else "MET"
+    print(f"{verdict}: mechnet's time to reach each error of {LEVELS[0]:.0e} … {LEVELS[-1]:.0e} rad within {TARGET}x "
+          f"of the hand-written model's (work-precision fronts)" + (": " + ", ".join(missed) if missed else "")
+          + (f"; undecided (a time known only as a bound): {', '.join(undecided)}" if undecided else ""))
     if not args.no_plot:
         plot(rows, curves, HERE / "loops.png", sweeps)
 
@@ -416,11 +419,11 @@ def print_fronts(sweeps):
     print(f"\ntime to reach a crank-angle error (rad) on the work-precision fronts ({len(SWEEP)} rtols, "
           f"{SWEEP[0]:.0e} … {SWEEP[-1]:.0e}, quarter decades, best of {SWEEP_REPEATS}): mechnet / hand\n{head}\n"
           + "-" * len(head))
-    passed, missed = [], []
+    passed, missed, undecided = [], [], []
     for mech, (pts, failed) in sweeps.items():
         cells = []
         for level in LEVELS:
-            (t_mn, b_mn), (t_hd, b_hd) = time_to_reach(level, front(pts["mechnet"])), time_to_reach(level, front(pts["hand"]))
+            (t_mn, b_mn), (t_hd, b_hd) = time_to_reach(level, pts["mechnet"]), time_to_reach(level, pts["hand"])
             if t_hd is None:                      # the hand model cannot reach it: no verdict
                 cells.append("hd -" if t_mn is not None else "-")
                 continue
@@ -431,12 +434,14 @@ def print_fronts(sweeps):
             ratio = t_mn / t_hd
             if b_mn and b_hd:                     # both upper bounds: undecided
                 cells.append(f"~{ratio:.2f}")
+                undecided.append(f"{mech} {level:.0e}")
             elif b_mn:                            # mechnet's time is an upper bound: decides a pass only
                 cells.append(f"<{ratio:.2f}")
-                passed.extend([ratio] if ratio <= TARGET else [])
+                (passed.append(ratio) if ratio <= TARGET else undecided.append(f"{mech} {level:.0e}"))
             elif b_hd:                            # the hand model's is: decides a miss only
                 cells.append(f">{ratio:.2f}")
-                missed.extend([f"{mech} {level:.0e} >{ratio:.2f}x"] if ratio > TARGET else [])
+                (missed.append(f"{mech} {level:.0e} >{ratio:.2f}x") if ratio > TARGET
+                 else undecided.append(f"{mech} {level:.0e}"))
             else:
                 cells.append(f"{ratio:.2f}")
                 (passed if ratio <= TARGET else missed).append(ratio if ratio <= TARGET else
@@ -448,11 +453,11 @@ def print_fronts(sweeps):
         if failed["mechnet"]:                     # a failed run is a miss whatever the fronts say
             missed.append(f"{mech}: mechnet failed at {len(failed['mechnet'])} rtol(s)")
     print("(each tool's front: its runs that no other of its runs beats in both time and error; times between "
-          "front points\n interpolated log-log. '<' / '>': one tool's least accurate run is already more "
-          "accurate, the ratio is a bound;\n 'mn -': only the hand model reaches that error (a miss), 'hd -': "
+          "front points\n interpolated log-log. '<' / '>': no run of one tool was that inaccurate, the ratio "
+          "is a bound;\n 'mn -': only the hand model reaches that error (a miss), 'hd -': "
           "only mechnet. A single run's error moves by 3-6x\n between neighbouring rtols, so the fronts, not single "
           "runs, give the time at equal error.)")
-    return passed, missed
+    return passed, missed, undecided
 
 
 if __name__ == "__main__":

@@ -121,8 +121,14 @@ def test_continuing_a_run_keeps_the_branch_through_a_reselection():
     assert any(e.kind == "reselection" for e in first.events)
     second = cm.simulate(3.0, continue_from=first, rtol=1e-8, atol=1e-8, n_out=251)
     assert second.t[0] == first.t[-1]
-    # it goes on with the states the first run ended with: no switch back and forth at its start
+    # it goes on with the states the first run ended with: no switch back and forth at its start, also
+    # from a result loaded into a fresh compile (whose selection with those states is not built yet)
     assert not [e for e in second.events if e.t == second.t[0]], second.events[:2]
+    import pickle
+    again = cartesian_pendulum(theta0=2.5).compile().simulate(
+        3.0, continue_from=pickle.loads(pickle.dumps(first)), rtol=1e-8, atol=1e-8, n_out=251)
+    assert not [e for e in again.events if e.t == again.t[0]], again.events[:2]
+    assert abs(again["p.x"][-1] - second["p.x"][-1]) < 1e-9
     assert second["p.y"][0] == pytest.approx(first["p.y"][-1], abs=1e-12)
     assert abs(second["p.x"][-1] - full["p.x"][-1]) < 1e-5
 

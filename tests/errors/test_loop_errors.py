@@ -9,11 +9,16 @@ from mechnet.components import multibody as mb
 from models import four_bar
 
 
-def _square_loop(axes, coupler=(1.0, 0.0, 0.0)):
+def _square_loop(axes, coupler=(1.0, 0.0, 0.0), turntable=False):
     """World — pin1 — crank (0.5 up) — pin2 — coupler — pin3 — rocker (0.5 down) — pin4 — anchor (1 m) — World,
-    a particle on each moving link away from its joints."""
+    a particle on each moving link away from its joints. `turntable`: the loop's ground turns about world x."""
     m = mn.Model("m")
     world = m.add(mb.World(name="world"))
+    if turntable:
+        table = m.add(mb.Revolute(name="table", n=[1, 0, 0], phi_start=0.2, w_start=0.0))
+        m.connect(world.frame_b, table.frame_a)
+        m.connect(table.frame_b, m.add(mb.Body(name="table_body", m=1.0, I=[[0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]])).frame_a)
+        world = table
     anchor = m.add(mb.FixedTranslation(name="anchor", r=[1.0, 0.0, 0.0]))
     pins = [m.add(mb.Revolute(name=f"pin{k + 1}", n=axes[k])) for k in range(4)]
     crank = m.add(mb.FixedTranslation(name="crank", r=[0.0, 0.5, 0.0]))
@@ -43,10 +48,12 @@ def test_start_values_that_cannot_close_the_loop_name_the_loop_joints_and_residu
     assert "joint_a.phi = 2.2" in text
 
 
-def test_loop_with_a_constant_residual_names_the_joint_that_cannot_close():
-    # parallel z axes, but the coupler is offset 5 cm along z: the loop can never close along z
+@pytest.mark.parametrize("turntable", [False, True], ids=["on the ground", "on a turntable"])
+def test_loop_with_a_constant_residual_names_the_joint_that_cannot_close(turntable):
+    # parallel z axes, but the coupler is offset 5 cm along z: the loop can never close along z. On a
+    # ground turning about x the offset is still a constant, in the axes of the loop's root (the table)
     with pytest.raises(mn.StructureError, match=r"cannot close") as err:
-        _square_loop([[0, 0, 1]] * 4, coupler=(1.0, 0.0, 0.05)).compile()
+        _square_loop([[0, 0, 1]] * 4, coupler=(1.0, 0.0, 0.05), turntable=turntable).compile()
     text = str(err.value)
     assert "position z" in text and "-0.05" in text
     assert "loop 1" in text and all(f"pin{k}" in text for k in range(1, 5))

@@ -5,15 +5,18 @@ of them closes a kinematic loop. Such a *cut edge* takes no part in the
 articulated-body recursion. It acts like a force element whose cut forces
 load the tree, and it adds equations of its own:
 
-- six closure residuals: the relative position in world axes,
-  r_b − r_a − R_a r_rel(q), and the relative rotation M = R_rel(q)ᵀ R_aᵀ R_b
-  as three angles atan2(skew part, trace part), about frame_a's axes. The
-  angles are exact for a rotation about one axis and vanish only at M = 1, so
-  there is no second branch at π. The position stays in world axes because
-  index reduction differentiates it twice: resolved in frame_a it carried
-  frame_a's rotation through both derivatives (a slider-crank's acceleration
-  rows took 118 instructions each, its ODE 478; in world axes its ODE takes
-  347 and the piston position is solved explicitly);
+- six closure residuals: the relative position in the axes of the loop's
+  root (`loop_root`, where the tree paths to the cut's two frames meet; the
+  world for a linkage on the ground), R_cᵀ(r_b − r_a − R_a r_rel(q)), and the
+  relative rotation M = R_rel(q)ᵀ R_aᵀ R_b as three angles atan2(skew part,
+  trace part), about frame_a's axes. The angles are exact for a rotation about
+  one axis and vanish only at M = 1, so there is no second branch at π. The
+  root's axes move with the whole loop, so a planar loop's normal stays a
+  constant direction there even on a turning base, and on the ground they are
+  the world's. Index reduction differentiates the position twice: resolved in
+  frame_a it carried frame_a's rotation through both derivatives (a
+  slider-crank's acceleration rows took 118 instructions each, its ODE 478; in
+  world axes 347, and the piston position is solved explicitly);
 - the balance of the massless edge: forces in world axes, R_a f_a + R_b f_b = 0
   (R_a f_a pairs with the world-axes position residual), torques in frame_a's,
   t_a + R_aᵀ(R_b t_b + (r_b − r_a) × R_b f_b) = 0. There frame_a's cut torque has
@@ -23,7 +26,7 @@ load the tree, and it adds equations of its own:
 - for a joint, its drive: s_linᵀ f_a − s_angᵀ t_b = axis load (Modelica's
   tau = −n·frame_b.t, f = −n·frame_b.f).
 
-The constraint wrench λ = (R_a f_a, −t_b) pairs with the residuals by virtual work
+The constraint wrench λ = (R_cᵀR_a f_a, −t_b) pairs with the residuals by virtual work
 (on the constraint manifold, λᵀ d(res)/dt is the power of the constraint
 forces). A planar loop of parallel revolutes has three residual directions
 that stay constant whatever the coordinates. They are found as the common
@@ -48,8 +51,7 @@ from ..core.errors import StructureError
 from .artifacts import FlatEquation
 
 _AXES = ("x", "y", "z")
-_DIRECTIONS = tuple(f"position {a} (world axes)" for a in _AXES) + tuple(f"rotation about {a} (frame_a axes)"
-                                                                       for a in _AXES)
+_DIRECTIONS = tuple(f"position {a}" for a in _AXES) + tuple(f"rotation about {a}" for a in _AXES)
 
 
 @dataclass(frozen=True)
@@ -81,6 +83,15 @@ def tree_path(parent, n):
     return out
 
 
+def loop_root(parent, na, nb):
+    """The node where the tree paths from na and nb meet: the loop's part that carries the rest."""
+    above_a = {na} | {parent[n][2] for n, _ in tree_path(parent, na)}
+    n = nb
+    while n not in above_a:
+        n = parent[n][2]
+    return n
+
+
 def loop_edges(parent, na, nb):
     """The tree edges between nodes na and nb (through their nearest common ancestor)."""
     pa, pb = tree_path(parent, na), tree_path(parent, nb)
@@ -95,12 +106,15 @@ def _angles(M):
                       ca.atan2(M[1, 0] - M[0, 1], M[0, 0] + M[1, 1]))
 
 
-def closure(e, ka, kb):
-    """(residuals, wrench λ, balance, drive or None) of the cut edge e between frames with kinematics ka, kb."""
+def closure(e, ka, kb, kc):
+    """(residuals, wrench λ, balance, drive or None) of the cut edge e between frames with kinematics ka,
+    kb, in a loop whose root (`loop_root`) has kinematics kc."""
     r_rel, R_rel = e.relative_motion()
     r_rel, R_rel = ca.SX(r_rel), ca.SX(R_rel)
     d = kb.r - ka.r
-    residuals = ca.vertcat(d - ca.mtimes(ka.R, r_rel),
+    root = ca.SX(kc.R)
+    to_root = (lambda v: v) if root.is_eye() else (lambda v: ca.mtimes(root.T, v))
+    residuals = ca.vertcat(to_root(d - ca.mtimes(ka.R, r_rel)),
                            _angles(ca.mtimes(R_rel.T, ca.mtimes(ka.R.T, kb.R))))
     f_a, t_a = e.frame_a._values["f"], e.frame_a._values["t"]
     f_b, t_b = e.frame_b._values["f"], e.frame_b._values["t"]
@@ -111,7 +125,7 @@ def closure(e, ka, kb):
     if e.dof:
         s_ang, s_lin = e.motion_axes()
         drive = ca.dot(ca.SX(s_lin), f_a) - ca.dot(ca.SX(s_ang), t_b) - e.axis_load()
-    return residuals, ca.vertcat(ca.mtimes(ka.R, f_a), -t_b), balance, drive
+    return residuals, ca.vertcat(to_root(ca.mtimes(ka.R, f_a)), -t_b), balance, drive
 
 
 def _clean(A, tol=1e-12):
@@ -135,7 +149,7 @@ def _split(P):
     return basis(np.eye(6) - P), basis(P)
 
 
-def reduce_redundancy(cuts, residuals, coordinates, let, tunables, parent_describe):
+def reduce_redundancy(cuts, residuals, coordinates, let, tunables, parent_describe, position_axes):
     """For each cut edge, the bases (kept K, dropped N) of its residual directions, decided from the
     Jacobian at random coordinates; errors for loops that cannot close or are redundant in 3D."""
     q = ca.vertcat(*coordinates)
@@ -168,7 +182,7 @@ def reduce_redundancy(cuts, residuals, coordinates, let, tunables, parent_descri
             if abs(c[0]) > tol:
                 raise StructureError(
                     f"{parent_describe(k)} cannot close: the closure residual of {e.path} "
-                    f"({type(e).__name__}) along {direction(N[:, j])} is the constant {c[0]:.6g} "
+                    f"({type(e).__name__}) along {direction(N[:, j], position_axes[k])} is the constant {c[0]:.6g} "
                     f"whatever the joint coordinates (axes not parallel, or link offsets along the "
                     f"common axis that do not add up); fix the geometry of the joints around the loop")
         bases.append((K, N))
@@ -187,21 +201,31 @@ def reduce_redundancy(cuts, residuals, coordinates, let, tunables, parent_descri
     return bases
 
 
-def direction(n):
+def direction(n, position_axes="world axes"):
+    """A residual direction in words: 'position z (world axes)', or a combination with its axes named once
+    (positions are resolved in the loop root's axes, `position_axes`; rotations in frame_a's)."""
     n = _clean(np.asarray(n, dtype=float))
     hits = [k for k in range(6) if n[k] != 0]
+    kinds = [(kind, where) for kind, where, present in
+             (("position", position_axes, any(k < 3 for k in hits)), ("rotation", "frame_a axes", any(k >= 3 for k in hits)))
+             if present]
+    axes = kinds[0][1] if len(kinds) == 1 else ", ".join(f"{kind}: {where}" for kind, where in kinds)
     if len(hits) == 1:
-        return _DIRECTIONS[hits[0]]
-    return "the combination " + " + ".join(f"{n[k]:.3g}·{_DIRECTIONS[k]}" for k in hits)
+        return f"{_DIRECTIONS[hits[0]]} ({axes})"
+    terms = []
+    for i, k in enumerate(hits):
+        sign = (" − " if n[k] < 0 else " + ") if i else ("-" if n[k] < 0 else "")
+        terms.append(f"{sign}{abs(n[k]):.3g}·{_DIRECTIONS[k]}")
+    return f"the combination {''.join(terms)} ({axes})"
 
 
-def closure_equations(e, loop, residuals, wrench, balance, drive, K, N):
+def closure_equations(e, loop, residuals, wrench, balance, drive, K, N, position_axes):
     """The cut edge's equations: kept residual combinations, balance, drive, dropped wrench components = 0."""
     label = f"{e.path} ({type(e).__name__}), {loop.describe()}"
     eqs = []
     kept = ca.mtimes(ca.sparsify(ca.DM(K.T)), residuals) if K.shape[1] else ca.SX(0, 1)
     for i in range(kept.numel()):
-        eqs.append(FlatEquation(kept[i], e.path, f"{label}, closure residual {direction(K[:, i])}",
+        eqs.append(FlatEquation(kept[i], e.path, f"{label}, closure residual {direction(K[:, i], position_axes)}",
                                 "loop closure (position level)"))
     for i in range(6):
         eqs.append(FlatEquation(balance[i], e.path, f"{label}, balance[{i}]",
@@ -210,6 +234,6 @@ def closure_equations(e, loop, residuals, wrench, balance, drive, K, N):
         eqs.append(FlatEquation(drive, e.path, f"{label}, drive", "axis load from the cut wrench"))
     gauge = ca.mtimes(ca.sparsify(ca.DM(N.T)), wrench) if N.shape[1] else ca.SX(0, 1)
     for i in range(gauge.numel()):
-        eqs.append(FlatEquation(gauge[i], e.path, f"{label}, dropped constraint {direction(N[:, i])}",
+        eqs.append(FlatEquation(gauge[i], e.path, f"{label}, dropped constraint {direction(N[:, i], position_axes)}",
                                 "no wrench along a redundant constraint direction"))
     return eqs

@@ -41,7 +41,7 @@ import numpy as np
 from ..core.equation import der
 from ..core.errors import StructureError
 from .artifacts import FlatEquation, FlatVariable
-from .loops import Loop, closure, closure_equations, direction, loop_edges, reduce_redundancy
+from .loops import Loop, closure, closure_equations, direction, loop_edges, loop_root, reduce_redundancy
 
 
 def _rotation_about_z(angle):
@@ -518,8 +518,10 @@ class _Tree:
         """Each cut edge: closure residuals (redundant planar directions dropped), balance, drive."""
         if not self.cuts:
             return
-        parts = [closure(e, self.kin[self.node_of[e.frame_a]], self.kin[self.node_of[e.frame_b]])
-                 for e in self.cuts]
+        roots = [loop_root(self.parent, self.node_of[e.frame_a], self.node_of[e.frame_b]) for e in self.cuts]
+        parts = [closure(e, self.kin[self.node_of[e.frame_a]], self.kin[self.node_of[e.frame_b]], self.kin[root])
+                 for e, root in zip(self.cuts, roots)]
+        axes = ["world axes" if root == self.order[0] else f"axes of {self.members[root][0].label}" for root in roots]
         # residuals are written in the joint coordinates themselves (an expression along the loop's
         # tree path): index reduction must see which coordinates they constrain
         _, expanded = ca.substitute_inplace(self.let_symbols, self.let_values, [p[0] for p in parts], False)
@@ -531,12 +533,12 @@ class _Tree:
         coordinates = [q for _, q, _ in self.coordinates] + [e.coordinate() for e in self.cuts if e.dof]
         tunables = [(sym, value) for c in self.components for sym, value in c.tunable.values()]
         bases = reduce_redundancy(self.cuts, [r for r, _, _, _ in parts], coordinates,
-                                  (self.let_symbols, self.let_values), tunables, lambda k: loops[k].describe())
+                                  (self.let_symbols, self.let_values), tunables, lambda k: loops[k].describe(), axes)
         for k, (e, (res, wrench, balance, drive), (K, N)) in enumerate(zip(self.cuts, parts, bases)):
             loop = replace(loops[k], kept=K.shape[1],
-                           dropped=tuple(direction(N[:, j]) for j in range(N.shape[1])))
+                           dropped=tuple(direction(N[:, j], axes[k]) for j in range(N.shape[1])))
             tree.loops.append(loop)
-            tree.equations.extend(closure_equations(e, loop, res, wrench, balance, drive, K, N))
+            tree.equations.extend(closure_equations(e, loop, res, wrench, balance, drive, K, N, axes[k]))
 
     def scene_sensors(self, tree):
         """SystemEnergy and SystemMomentum: sums over the bodies (and the force elements' stored energy)."""

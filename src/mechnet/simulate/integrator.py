@@ -32,7 +32,7 @@ from ..core.declarations import finite_number
 from ..numeric import mapped_in
 from .events import Event, breakpoints, chunk_bounds, output_grid
 from .change_points import ChangePoints
-from .branch import Verdict, state_names
+from .branch import Verdict, selections, state_names
 from .reselection import Reselection, SelectionMonitor
 from .state_events import StateEvents
 from .initialize import initialize, solve_algebraic
@@ -204,9 +204,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
             raise MechnetError(f"continue_from takes a Result, got {type(continue_from).__name__}")
         t_start = continue_from.final_time
         guess = {**continue_from.final_values, **(guess or {})}
-        # on with the states the run ended with (else the monitor switches back to them at t_start)
-        dae = next((sel for sel in (cm.dae, *cm._selections.values())
-                    if sel.x_names == continue_from.state_names), dae)
+        dae = _selection_with_states(cm, continue_from.state_names) or dae
     method, plugin, extra = _plugin(dae, method)
     if t_out is not None:
         if n_out is not None:
@@ -282,6 +280,23 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
         run.failure.result = result
         warnings.warn(str(run.failure), IntegrationWarning, stacklevel=3)
     return result
+
+
+def _selection_with_states(cm, names):
+    """The compiled selection whose states are `names` (a continued run goes on with the states it ended
+    with; else the monitor switches back to them at its start), compiled if needed (a result loaded
+    from a file into a fresh model); None when no selection has them."""
+    for sel in (cm.dae, *cm._selections.values()):
+        if set(sel.x_names) == set(names):
+            return sel
+    factory = cm.selection_factory
+    for dummies in (selections(factory) or []) if factory is not None else []:
+        if set(state_names(factory, dummies)) == set(names):
+            try:
+                return cm.selection(dummies)
+            except MechnetError:
+                return None
+    return None
 
 
 def _check_time(value, what: str) -> float:
