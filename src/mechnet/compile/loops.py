@@ -6,8 +6,9 @@ articulated-body recursion. It acts like a force element whose cut forces
 load the tree, and it adds equations of its own:
 
 - six closure residuals: the relative position in the axes of the loop's
-  root (`loop_root`, where the tree paths to the cut's two frames meet; the
-  world for a linkage on the ground), R_cᵀ(r_b − r_a − R_a r_rel(q)), and the
+  root (`loop_root`, where the tree paths to the cut's two frames meet),
+  R_cᵀ(r_b − r_a − R_a r_rel(q)), or in world axes when the root does not turn
+  or every rotation down to the cut is about world z; and the
   relative rotation M = R_rel(q)ᵀ R_aᵀ R_b as three angles atan2(skew part,
   trace part), about frame_a's axes. The angles are exact for a rotation about
   one axis and vanish only at M = 1, so there is no second branch at π. The
@@ -106,14 +107,15 @@ def _angles(M):
                       ca.atan2(M[1, 0] - M[0, 1], M[0, 0] + M[1, 1]))
 
 
-def closure(e, ka, kb, kc):
+def closure(e, ka, kb, kc=None):
     """(residuals, wrench λ, balance, drive or None) of the cut edge e between frames with kinematics ka,
-    kb, in a loop whose root (`loop_root`) has kinematics kc."""
+    kb; the position resolved in the axes of kc (the loop's root, `loop_root`), or the world's (None)."""
     r_rel, R_rel = e.relative_motion()
     r_rel, R_rel = ca.SX(r_rel), ca.SX(R_rel)
     d = kb.r - ka.r
-    root = ca.SX(kc.R)
-    to_root = (lambda v: v) if root.is_eye() else (lambda v: ca.mtimes(root.T, v))
+
+    def to_root(v):
+        return v if kc is None else ca.mtimes(kc.R.T, v)
     residuals = ca.vertcat(to_root(d - ca.mtimes(ka.R, r_rel)),
                            _angles(ca.mtimes(R_rel.T, ca.mtimes(ka.R.T, kb.R))))
     f_a, t_a = e.frame_a._values["f"], e.frame_a._values["t"]

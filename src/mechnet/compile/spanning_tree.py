@@ -53,22 +53,33 @@ def _rotation_about_z(angle):
 
 def _turn_about_z(e, R_rel, parent_turn, forward):
     """The angle about world z of an edge's child frame when its parent's is `parent_turn` and the edge
-    turns about z too (a revolute about ±z, or a fixed rotation about z); None otherwise."""
+    turns about z too, or not at all (a revolute about ±z, a prismatic, a fixed rotation about z); None
+    otherwise. R_rel itself is checked, not only the joint's motion axes (a joint class of the user's
+    may turn by more than its coordinate)."""
     if parent_turn is None:
         return None
-    sign = 1.0 if forward else -1.0
-    if e.dof == 1:
-        s_ang, s_lin = (np.asarray(ca.DM(a).full(), dtype=float).ravel() for a in e.motion_axes())
-        if np.any(s_lin) or s_ang[0] or s_ang[1]:
-            return None
-        return parent_turn + sign * s_ang[2] * e.coordinate()
     R = ca.SX(R_rel)
-    if e.dof or not R.is_constant():
+    if e.dof == 0:
+        if not R.is_constant():
+            return None
+        M = np.asarray(ca.evalf(R).full(), dtype=float)
+        if M[2, 2] != 1.0 or np.any(M[2, :2]) or np.any(M[:2, 2]):
+            return None
+        angle = float(np.arctan2(M[1, 0], M[0, 0]))
+    elif e.dof == 1:
+        q = e.coordinate()
+        s_ang = np.asarray(ca.DM(e.motion_axes()[0]).full(), dtype=float).ravel()
+        if s_ang[0] or s_ang[1] or any(not ca.is_equal(v, q) for v in ca.symvar(R)):
+            return None
+        angle = s_ang[2] * q
+        gap = ca.Function("gap", [q], [R - _rotation_about_z(angle)])
+        if any(np.max(np.abs(np.asarray(gap(v)))) > 1e-12 for v in (0.3, -1.7)):
+            return None
+    else:
         return None
-    M = np.asarray(ca.evalf(R).full(), dtype=float)
-    if M[2, 2] != 1.0 or np.any(M[2, :2]) or np.any(M[:2, 2]):
-        return None
-    return parent_turn + sign * float(np.arctan2(M[1, 0], M[0, 0]))
+    if ca.SX(angle).is_zero():
+        return parent_turn                    # no turn (a prismatic): the same angle, the same R
+    return parent_turn + (angle if forward else -angle)
 
 
 @dataclass
@@ -232,7 +243,7 @@ class _Tree:
         self.link_nodes = {None: [root]}
         self.joint = {}                       # link -> (joint, S = (angular, linear) axis, world axes)
         self.coordinates = []
-        turn = {root: ca.SX(0.0)}            # node -> its angle about world z, while every rotation is about z
+        self.turn = turn = {root: ca.SX(0.0)}   # node -> its angle about world z while every rotation is about z
         for n in self.order[1:]:
             e, forward, p = self.parent[n]
             kp = self.kin[p]
@@ -242,7 +253,7 @@ class _Tree:
             if turn[n] is not None and not same_axes:
                 # a planar chain: the angles add, and R is built from their sum (not as a product of the
                 # joints' rotations, whose expansion grows with every link and every time derivative)
-                R = _rotation_about_z(turn[n])
+                R = kp.R if turn[n] is turn[p] else _rotation_about_z(turn[n])
                 r = kp.r + ca.mtimes(kp.R, r_rel) if forward else kp.r - ca.mtimes(R, r_rel)
                 Ra = kp.R if forward else R
             elif same_axes:
@@ -514,14 +525,28 @@ class _Tree:
             if tuned or not all(v[2 * k] > 1e-9 * max(v[2 * k + 1], 1e-300) for v in values):
                 tree.equations[index] = replace(tree.equations[index], pivot="", pivot_unless=())
 
+    def _loop_axes(self, e):
+        """The node whose axes resolve the closure position of cut edge e: the loop's root (`loop_root`),
+        or None for world axes — when the root does not turn, or when every rotation down to the cut's
+        frames is about world z (a planar loop's normal is then world z whatever the root does). World
+        axes keep the root's rotation out of the residual's two time derivatives."""
+        na, nb = self.node_of[e.frame_a], self.node_of[e.frame_b]
+        if self.turn.get(na) is not None and self.turn.get(nb) is not None:
+            return None
+        root = loop_root(self.parent, na, nb)
+        R = ca.SX(self.kin[root].R)
+        if R.is_constant() and np.array_equal(np.asarray(ca.evalf(R).full()), np.eye(3)):
+            return None
+        return root
+
     def close_loops(self, tree):
         """Each cut edge: closure residuals (redundant planar directions dropped), balance, drive."""
         if not self.cuts:
             return
-        roots = [loop_root(self.parent, self.node_of[e.frame_a], self.node_of[e.frame_b]) for e in self.cuts]
-        parts = [closure(e, self.kin[self.node_of[e.frame_a]], self.kin[self.node_of[e.frame_b]], self.kin[root])
-                 for e, root in zip(self.cuts, roots)]
-        axes = ["world axes" if root == self.order[0] else f"axes of {self.members[root][0].label}" for root in roots]
+        roots = [self._loop_axes(e) for e in self.cuts]
+        parts = [closure(e, self.kin[self.node_of[e.frame_a]], self.kin[self.node_of[e.frame_b]],
+                         None if root is None else self.kin[root]) for e, root in zip(self.cuts, roots)]
+        axes = ["world axes" if root is None else f"axes of {self.members[root][0].label}" for root in roots]
         # residuals are written in the joint coordinates themselves (an expression along the loop's
         # tree path): index reduction must see which coordinates they constrain
         _, expanded = ca.substitute_inplace(self.let_symbols, self.let_values, [p[0] for p in parts], False)

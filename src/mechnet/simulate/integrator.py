@@ -294,9 +294,9 @@ def _selection_with_states(cm, names):
         if set(state_names(factory, dummies)) == set(names):
             try:
                 return cm.selection(dummies)
-            except MechnetError:
+            except (MechnetError, RuntimeError):      # that selection cannot be compiled: the default one
                 return None
-    return None
+    return None                                       # (also past MAX_SELECTIONS: the default one)
 
 
 def _check_time(value, what: str) -> float:
