@@ -40,6 +40,7 @@ import numpy as np
 
 from ..core.equation import der
 from ..core.errors import StructureError
+from ..components.multibody.frames import axis_rotation
 from .artifacts import FlatEquation, FlatVariable
 from .loops import Loop, closure, closure_equations, direction, loop_edges, loop_root, reduce_redundancy
 
@@ -51,35 +52,88 @@ def _rotation_about_z(angle):
     return R
 
 
-def _turn_about_z(e, R_rel, parent_turn, forward):
-    """The angle about world z of an edge's child frame when its parent's is `parent_turn` and the edge
-    turns about z too, or not at all (a revolute about ±z, a prismatic, a fixed rotation about z); None
-    otherwise. R_rel itself is checked, not only the joint's motion axes (a joint class of the user's
-    may turn by more than its coordinate)."""
-    if parent_turn is None:
+def _tidy(M, tol=1e-14):
+    """Round-off in a constant rotation made exact: ~0 to 0 and ~±1 to ±1 (structural zeros survive)."""
+    M = np.where(np.abs(M) < tol, 0.0, M)
+    return np.where(np.abs(np.abs(M) - 1.0) < tol, np.sign(M), M)
+
+
+def _rz(a):
+    return np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+
+
+def _onto_z(n):
+    """A constant rotation B with B·n = z (n a unit vector)."""
+    if np.allclose(n, [0.0, 0.0, 1.0], rtol=0, atol=1e-14):
+        return np.eye(3)
+    if np.allclose(n, [0.0, 0.0, -1.0], rtol=0, atol=1e-14):
+        return np.diag([1.0, -1.0, -1.0])
+    k = np.cross(n, [0.0, 0.0, 1.0])
+    k, angle = k / np.linalg.norm(k), np.arccos(np.clip(n[2], -1.0, 1.0))
+    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return _tidy(np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K)
+
+
+@dataclass(frozen=True)
+class _Turn:
+    """A frame's orientation R = A·Rz(angle)·B with A, B constant: reached from the world by rotations
+    about one fixed axis (A·z) only. Its angle is then a sum of joint angles, and R is built from that
+    sum: the product of the joints' rotations grows with every link and every time derivative."""
+
+    A: np.ndarray
+    angle: ca.SX
+    B: np.ndarray
+
+    def rotation(self):
+        Rz = _rotation_about_z(self.angle)
+        return ca.mtimes(ca.DM(self.A), ca.mtimes(Rz, ca.DM(self.B)))
+
+    def fixed(self):
+        """R as numbers when the angle is a number, else None."""
+        a = ca.SX(self.angle)
+        return _tidy(self.A @ _rz(float(ca.evalf(a))) @ self.B) if a.is_constant() else None
+
+
+def _next_turn(e, R_rel, turn, forward):
+    """The child's _Turn across edge e (R_child = R_parent·R_rel, or ·R_relᵀ when the edge is walked
+    backwards), or None when the edge turns about another axis. R_rel itself is checked, not only the
+    joint's motion axes (a joint class of the user's may turn by more than its coordinate)."""
+    if turn is None:
         return None
     R = ca.SX(R_rel)
+    fixed = turn.fixed()
     if e.dof == 0:
         if not R.is_constant():
             return None
         M = np.asarray(ca.evalf(R).full(), dtype=float)
-        if M[2, 2] != 1.0 or np.any(M[2, :2]) or np.any(M[:2, 2]):
+        M = M if forward else M.T
+        if fixed is not None:
+            return _Turn(_tidy(fixed @ M), ca.SX(0.0), np.eye(3))
+        C = _tidy(turn.B @ M @ turn.B.T, 1e-12)           # B·M = C·B: C must turn about z
+        if C[2, 2] != 1.0 or np.any(C[2, :2]) or np.any(C[:2, 2]):
             return None
-        angle = float(np.arctan2(M[1, 0], M[0, 0]))
-    elif e.dof == 1:
-        q = e.coordinate()
-        s_ang = np.asarray(ca.DM(e.motion_axes()[0]).full(), dtype=float).ravel()
-        if s_ang[0] or s_ang[1] or any(not ca.is_equal(v, q) for v in ca.symvar(R)):
-            return None
-        angle = s_ang[2] * q
-        gap = ca.Function("gap", [q], [R - _rotation_about_z(angle)])
-        if any(np.max(np.abs(np.asarray(gap(v)))) > 1e-12 for v in (0.3, -1.7)):
-            return None
-    else:
+        return _Turn(turn.A, turn.angle + float(np.arctan2(C[1, 0], C[0, 0])), turn.B)
+    if e.dof != 1:
         return None
-    if ca.SX(angle).is_zero():
-        return parent_turn                    # no turn (a prismatic): the same angle, the same R
-    return parent_turn + (angle if forward else -angle)
+    q = e.coordinate()
+    n, s_lin = (np.asarray(ca.DM(a).full(), dtype=float).ravel() for a in e.motion_axes())
+    if any(not ca.is_equal(v, q) for v in ca.symvar(R)):
+        return None
+    if not np.any(n):
+        return turn if R.is_constant() and R.is_eye() else None          # a prismatic: the same turn
+    if np.any(s_lin):
+        return None
+    gap = ca.Function("gap", [q], [R - axis_rotation(ca.DM(n), q)])
+    if any(np.max(np.abs(np.asarray(gap(v)))) > 1e-12 for v in (0.3, -1.7)):
+        return None
+    sign = 1.0 if forward else -1.0
+    if fixed is not None:                                    # a new axis: Rot_n(x) = Bᵀ·Rz(x)·B with B·n = z
+        B = _onto_z(n)
+        return _Turn(_tidy(fixed @ B.T), sign * q, B)
+    m = turn.B @ n                                           # B·Rot_n(x) = Rot_{B·n}(x)·B: B·n must be ±z
+    if abs(abs(m[2]) - 1.0) > 1e-12:
+        return None
+    return _Turn(turn.A, turn.angle + sign * float(np.sign(m[2])) * q, turn.B)
 
 
 @dataclass
@@ -243,17 +297,16 @@ class _Tree:
         self.link_nodes = {None: [root]}
         self.joint = {}                       # link -> (joint, S = (angular, linear) axis, world axes)
         self.coordinates = []
-        self.turn = turn = {root: ca.SX(0.0)}   # node -> its angle about world z while every rotation is about z
+        self.turn = turn = {root: _Turn(np.eye(3), ca.SX(0.0), np.eye(3))}   # node -> its _Turn, or None
         for n in self.order[1:]:
             e, forward, p = self.parent[n]
             kp = self.kin[p]
             r_rel, R_rel = e.relative_motion()
             same_axes = e.dof == 0 and ca.SX(R_rel).is_eye()      # a pure translation keeps the orientation
-            turn[n] = turn[p] if same_axes else _turn_about_z(e, R_rel, turn[p], forward)
+            turn[n] = turn[p] if same_axes else _next_turn(e, R_rel, turn[p], forward)
             if turn[n] is not None and not same_axes:
-                # a planar chain: the angles add, and R is built from their sum (not as a product of the
-                # joints' rotations, whose expansion grows with every link and every time derivative)
-                R = kp.R if turn[n] is turn[p] else _rotation_about_z(turn[n])
+                # a planar chain: the angles add, and R is built from their sum (_Turn)
+                R = kp.R if turn[n] is turn[p] else turn[n].rotation()
                 r = kp.r + ca.mtimes(kp.R, r_rel) if forward else kp.r - ca.mtimes(R, r_rel)
                 Ra = kp.R if forward else R
             elif same_axes:
@@ -527,15 +580,17 @@ class _Tree:
 
     def _loop_axes(self, e):
         """The node whose axes resolve the closure position of cut edge e: the loop's root (`loop_root`),
-        or None for world axes — when the root does not turn, or when every rotation down to the cut's
-        frames is about world z (a planar loop's normal is then world z whatever the root does). World
-        axes keep the root's rotation out of the residual's two time derivatives."""
+        or None for world axes. A root that does not turn: world axes, or its own if it is tilted (the
+        labels stay axis-aligned at the price of a constant rotation). A turning root: world axes when
+        every rotation down to the cut's frames is about one fixed axis (_Turn; a planar loop's normal
+        is then constant in world axes), else its own. World axes keep the root's rotation out of the
+        residual's two time derivatives."""
         na, nb = self.node_of[e.frame_a], self.node_of[e.frame_b]
-        if self.turn.get(na) is not None and self.turn.get(nb) is not None:
-            return None
         root = loop_root(self.parent, na, nb)
         R = ca.SX(self.kin[root].R)
-        if R.is_constant() and np.array_equal(np.asarray(ca.evalf(R).full()), np.eye(3)):
+        if R.is_constant():                  # a root that does not turn: its own axes if it is tilted (its
+            return None if np.array_equal(np.asarray(ca.evalf(R).full()), np.eye(3)) else root  # labels align)
+        if self.turn.get(na) is not None and self.turn.get(nb) is not None:
             return None
         return root
 
