@@ -107,15 +107,16 @@ def _angles(M):
                       ca.atan2(M[1, 0] - M[0, 1], M[0, 0] + M[1, 1]))
 
 
-def closure(e, ka, kb, kc=None):
+def closure(e, ka, kb, axes=None):
     """(residuals, wrench λ, balance, drive or None) of the cut edge e between frames with kinematics ka,
-    kb; the position resolved in the axes of kc (the loop's root, `loop_root`), or the world's (None)."""
+    kb; the position resolved in the axes with orientation `axes` (the loop's root, `loop_root`, or a
+    constant frame), or the world's (None)."""
     r_rel, R_rel = e.relative_motion()
     r_rel, R_rel = ca.SX(r_rel), ca.SX(R_rel)
     d = kb.r - ka.r
 
     def to_root(v):
-        return v if kc is None else ca.mtimes(kc.R.T, v)
+        return v if axes is None else ca.mtimes(axes.T, v)
     residuals = ca.vertcat(to_root(d - ca.mtimes(ka.R, r_rel)),
                            _angles(ca.mtimes(R_rel.T, ca.mtimes(ka.R.T, kb.R))))
     f_a, t_a = e.frame_a._values["f"], e.frame_a._values["t"]

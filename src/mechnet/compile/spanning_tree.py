@@ -63,15 +63,16 @@ def _rz(a):
 
 
 def _onto_z(n):
-    """A constant rotation B with B·n = z (n a unit vector)."""
-    if np.allclose(n, [0.0, 0.0, 1.0], rtol=0, atol=1e-14):
-        return np.eye(3)
-    if np.allclose(n, [0.0, 0.0, -1.0], rtol=0, atol=1e-14):
-        return np.diag([1.0, -1.0, -1.0])
+    """A constant rotation B with B·n = z to 1e-14 (n a unit vector), or None. The angle comes from
+    atan2(|n × z|, n·z): arccos(n·z) loses an axis 1e-8 off z entirely (n·z rounds to 1)."""
+    if not (n[0] or n[1]):
+        return np.eye(3) if n[2] > 0 else np.diag([1.0, -1.0, -1.0])
     k = np.cross(n, [0.0, 0.0, 1.0])
-    k, angle = k / np.linalg.norm(k), np.arccos(np.clip(n[2], -1.0, 1.0))
+    sin = np.linalg.norm(k)
+    k, angle = k / sin, np.arctan2(sin, n[2])
     K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return _tidy(np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K)
+    B = _tidy(np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K)
+    return B if np.max(np.abs(B @ n - [0.0, 0.0, 1.0])) <= 1e-14 else None
 
 
 @dataclass(frozen=True)
@@ -124,14 +125,14 @@ def _next_turn(e, R_rel, turn, forward):
     if np.any(s_lin):
         return None
     gap = ca.Function("gap", [q], [R - axis_rotation(ca.DM(n), q)])
-    if any(np.max(np.abs(np.asarray(gap(v)))) > 1e-12 for v in (0.3, -1.7)):
+    if not all(np.max(np.abs(np.asarray(gap(v)))) <= 1e-12 for v in (0.3, -1.7)):
         return None
     sign = 1.0 if forward else -1.0
     if fixed is not None:                                    # a new axis: Rot_n(x) = Bᵀ·Rz(x)·B with B·n = z
         B = _onto_z(n)
-        return _Turn(_tidy(fixed @ B.T), sign * q, B)
-    m = turn.B @ n                                           # B·Rot_n(x) = Rot_{B·n}(x)·B: B·n must be ±z
-    if abs(abs(m[2]) - 1.0) > 1e-12:
+        return None if B is None else _Turn(_tidy(fixed @ B.T), sign * q, B)
+    m = turn.B @ n                                           # B·Rot_n(x) = Rot_{B·n}(x)·B: B·n must be ±z,
+    if abs(m[0]) > 1e-14 or abs(m[1]) > 1e-14:               # measured by the tilt (not by 1 − cos(tilt))
         return None
     return _Turn(turn.A, turn.angle + sign * float(np.sign(m[2])) * q, turn.B)
 
@@ -579,29 +580,34 @@ class _Tree:
                 tree.equations[index] = replace(tree.equations[index], pivot="", pivot_unless=())
 
     def _loop_axes(self, e):
-        """The node whose axes resolve the closure position of cut edge e: the loop's root (`loop_root`),
-        or None for world axes. A root that does not turn: world axes, or its own if it is tilted (the
-        labels stay axis-aligned at the price of a constant rotation). A turning root: world axes when
-        every rotation down to the cut's frames is about one fixed axis (_Turn; a planar loop's normal
-        is then constant in world axes), else its own. World axes keep the root's rotation out of the
-        residual's two time derivatives."""
+        """(R, name) of the axes that resolve the closure position of cut edge e; R None for the world's.
+        - a root (`loop_root`) that does not turn: the world's, or the root's own if it is tilted (a
+          constant rotation; the dropped directions then read 'position z');
+        - a turning root, every rotation down to the cut's frames about one fixed axis (_Turn): the
+          constant axes A of that turn, whose z is the plane's normal (the world's when A = 1);
+        - else the root's own: it turns with the whole loop.
+        Constant axes keep the root's rotation out of the residual's two time derivatives."""
         na, nb = self.node_of[e.frame_a], self.node_of[e.frame_b]
         root = loop_root(self.parent, na, nb)
+        label = self.members[root][0].label
         R = ca.SX(self.kin[root].R)
-        if R.is_constant():                  # a root that does not turn: its own axes if it is tilted (its
-            return None if np.array_equal(np.asarray(ca.evalf(R).full()), np.eye(3)) else root  # labels align)
-        if self.turn.get(na) is not None and self.turn.get(nb) is not None:
-            return None
-        return root
+        if R.is_constant():
+            fixed = np.asarray(ca.evalf(R).full())
+            return (None, "world axes") if np.array_equal(fixed, np.eye(3)) else (R, f"axes of {label}")
+        ta, tb = self.turn.get(na), self.turn.get(nb)
+        if ta is not None and tb is not None and np.array_equal(ta.A, tb.A):
+            return (None, "world axes") if np.array_equal(ta.A, np.eye(3)) else \
+                (ca.DM(ta.A), f"axes of the plane {label} turns in")
+        return R, f"axes of {label}"
 
     def close_loops(self, tree):
         """Each cut edge: closure residuals (redundant planar directions dropped), balance, drive."""
         if not self.cuts:
             return
-        roots = [self._loop_axes(e) for e in self.cuts]
-        parts = [closure(e, self.kin[self.node_of[e.frame_a]], self.kin[self.node_of[e.frame_b]],
-                         None if root is None else self.kin[root]) for e, root in zip(self.cuts, roots)]
-        axes = ["world axes" if root is None else f"axes of {self.members[root][0].label}" for root in roots]
+        frames = [self._loop_axes(e) for e in self.cuts]
+        parts = [closure(e, self.kin[self.node_of[e.frame_a]], self.kin[self.node_of[e.frame_b]], R)
+                 for e, (R, _) in zip(self.cuts, frames)]
+        axes = [name for _, name in frames]
         # residuals are written in the joint coordinates themselves (an expression along the loop's
         # tree path): index reduction must see which coordinates they constrain
         _, expanded = ca.substitute_inplace(self.let_symbols, self.let_values, [p[0] for p in parts], False)

@@ -1,4 +1,4 @@
-"""The tree pass builds a planar chain's orientations from angle sums (spanning_tree._turn_about_z):
+"""The tree pass builds a planar chain's orientations from angle sums (spanning_tree._Turn):
 checked against forward kinematics written here with numpy, and against joints it must not trust."""
 import casadi as ca
 import numpy as np
@@ -120,7 +120,9 @@ def _plane_chain(mount, axis):
 @pytest.mark.parametrize("mount, axis", [(((1, 0, 0), 0.0), (0, 1, 0)),          # revolutes about world y
                                          (((1, 0, 0), np.pi / 2), (0, 0, 1)),    # a vertical plane by a mount
                                          (((1, 1, 1), 0.7), (0, 0, 1)),          # an oblique plane
-                                         (((0, 0, 1), 0.4), (1, 2, 2))])         # an oblique axis, no mount
+                                         (((0, 0, 1), 0.4), (1, 2, 2)),          # an oblique axis, no mount
+                                         (((1, 0, 0), 0.0), (1e-7, 0, 1)),       # 1e-7 off z (arccos loses it)
+                                         (((1, 0, 0), 0.0), (3e-9, 0, -1))])     # 3e-9 off −z
 def test_a_planar_chain_about_any_fixed_axis_matches_forward_kinematics(mount, axis):
     """The angle sums hold for rotations about any one fixed axis (spanning_tree._Turn): positions and
     orientations of the last particle at 5 random q against numpy, to 1e-13 (lengths < 1 m)."""
@@ -133,3 +135,27 @@ def test_a_planar_chain_about_any_fixed_axis_matches_forward_kinematics(mount, a
         r, R = forward(q)
         np.testing.assert_allclose(k["r_0"], r, rtol=0, atol=1e-13)
         np.testing.assert_allclose(k["R"], R, rtol=0, atol=1e-13)
+
+
+def test_a_joint_axis_slightly_off_the_planes_axis_breaks_the_angle_sum():
+    """A revolute about z, then one whose axis leans 1e-6 rad off z: no longer one fixed axis. The pass
+    must multiply the rotations (a test on 1 − cos(tilt) took the lean for z and misplaced the last
+    frame by 2e-6); numpy forward kinematics to 1e-13."""
+    m = mn.Model("lean")
+    world = m.add(mb.World(name="world"))
+    j0 = m.add(mb.Revolute(name="j0", n=[0, 0, 1]))
+    l0 = m.add(mb.FixedTranslation(name="l0", r=[0.7, 0.2, 0.0]))
+    j1 = m.add(mb.Revolute(name="j1", n=[1e-6, 0, 1]))
+    l1 = m.add(mb.FixedTranslation(name="l1", r=[0.7, 0.2, 0.0]))
+    for a, b in [(world.frame_b, j0.frame_a), (j0.frame_b, l0.frame_a), (l0.frame_b, j1.frame_a),
+                 (j1.frame_b, l1.frame_a)]:
+        m.connect(a, b)
+    for k, frame in enumerate((l0.frame_b, l1.frame_b)):
+        m.connect(frame, m.add(mb.Particle(name=f"p{k}", m=1.0)).frame_a)
+    cm = m.compile()
+    for q0, q1 in [(0.4, 2.9), (-1.3, -2.2)]:
+        k = kinematics(cm, q={"j0": q0, "j1": q1})["p1.frame_a"]
+        R0 = _rot((0, 0, 1), q0)
+        R1 = R0 @ _rot((1e-6, 0, 1), q1)
+        np.testing.assert_allclose(k["R"], R1, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(k["r_0"], R0 @ [0.7, 0.2, 0.0] + R1 @ [0.7, 0.2, 0.0], rtol=0, atol=1e-13)
