@@ -107,18 +107,28 @@ def _angles(M):
                       ca.atan2(M[1, 0] - M[0, 1], M[0, 0] + M[1, 1]))
 
 
-def closure(e, ka, kb, axes=None):
+def closure(e, ka, kb, axes=None, turn=None):
     """(residuals, wrench λ, balance, drive or None) of the cut edge e between frames with kinematics ka,
     kb; the position resolved in the axes with orientation `axes` (the loop's root, `loop_root`, or a
-    constant frame), or the world's (None)."""
+    constant frame), or the world's (None). `turn`: a constant rotation B taking the loop's common joint
+    axis, in frame_a's axes, onto z (a planar loop about an oblique axis): the three angles are taken
+    about B's axes, where a turn about that axis is exactly (0, 0, θ) and the out-of-plane angles stay
+    constant; about frame_a's own axes they do not, and the loop was refused as over-constrained."""
     r_rel, R_rel = e.relative_motion()
     r_rel, R_rel = ca.SX(r_rel), ca.SX(R_rel)
     d = kb.r - ka.r
+    B = ca.DM(np.eye(3) if turn is None else turn)
 
     def to_root(v):
         return v if axes is None else ca.mtimes(axes.T, v)
-    residuals = ca.vertcat(to_root(d - ca.mtimes(ka.R, r_rel)),
-                           _angles(ca.mtimes(R_rel.T, ca.mtimes(ka.R.T, kb.R))))
+    # frame_a's axes in the residual's, as exact numbers when both are constant: Rᵀ·R of a tilted mount
+    # is 1 only to round-off, and a 1e-17 coefficient in a dropped direction's equation was taken as a
+    # pivot to divide by (a four-bar on a tilted mount got a wrong acceleration)
+    a_axes = to_root(ka.R)
+    if ca.SX(a_axes).is_constant():
+        a_axes = ca.DM(_clean(np.asarray(ca.evalf(ca.SX(a_axes)).full(), dtype=float), 1e-14))
+    residuals = ca.vertcat(to_root(d) - ca.mtimes(a_axes, r_rel),
+                           _angles(ca.mtimes(B, ca.mtimes(ca.mtimes(R_rel.T, ca.mtimes(ka.R.T, kb.R)), B.T))))
     f_a, t_a = e.frame_a._values["f"], e.frame_a._values["t"]
     f_b, t_b = e.frame_b._values["f"], e.frame_b._values["t"]
     fb_0 = ca.mtimes(kb.R, f_b)
@@ -128,7 +138,7 @@ def closure(e, ka, kb, axes=None):
     if e.dof:
         s_ang, s_lin = e.motion_axes()
         drive = ca.dot(ca.SX(s_lin), f_a) - ca.dot(ca.SX(s_ang), t_b) - e.axis_load()
-    return residuals, ca.vertcat(to_root(ca.mtimes(ka.R, f_a)), -t_b), balance, drive
+    return residuals, ca.vertcat(ca.mtimes(a_axes, f_a), -ca.mtimes(B, t_b)), balance, drive
 
 
 def _clean(A, tol=1e-12):
@@ -185,7 +195,7 @@ def reduce_redundancy(cuts, residuals, coordinates, let, tunables, parent_descri
             if abs(c[0]) > tol:
                 raise StructureError(
                     f"{parent_describe(k)} cannot close: the closure residual of {e.path} "
-                    f"({type(e).__name__}) along {direction(N[:, j], position_axes[k])} is the constant {c[0]:.6g} "
+                    f"({type(e).__name__}) along {direction(N[:, j], *position_axes[k])} is the constant {c[0]:.6g} "
                     f"whatever the joint coordinates (axes not parallel, or link offsets along the "
                     f"common axis that do not add up); fix the geometry of the joints around the loop")
         bases.append((K, N))
@@ -204,13 +214,13 @@ def reduce_redundancy(cuts, residuals, coordinates, let, tunables, parent_descri
     return bases
 
 
-def direction(n, position_axes="world axes"):
+def direction(n, position_axes="world axes", rotation_axes="frame_a axes"):
     """A residual direction in words: 'position z (world axes)', or a combination with its axes named once
     (positions are resolved in the loop root's axes, `position_axes`; rotations in frame_a's)."""
     n = _clean(np.asarray(n, dtype=float))
     hits = [k for k in range(6) if n[k] != 0]
     kinds = [(kind, where) for kind, where, present in
-             (("position", position_axes, any(k < 3 for k in hits)), ("rotation", "frame_a axes", any(k >= 3 for k in hits)))
+             (("position", position_axes, any(k < 3 for k in hits)), ("rotation", rotation_axes, any(k >= 3 for k in hits)))
              if present]
     axes = kinds[0][1] if len(kinds) == 1 else ", ".join(f"{kind}: {where}" for kind, where in kinds)
     if len(hits) == 1:
@@ -222,13 +232,29 @@ def direction(n, position_axes="world axes"):
     return f"the combination {''.join(terms)} ({axes})"
 
 
+def _without_round_off(row):
+    """A row linear in its variables with constant coefficients, without the coefficients that are
+    round-off of the largest (below 1e-12 of it): a wrench component along a dropped direction, where
+    a 1e-17 coefficient would be taken for a pivot to divide by."""
+    syms = ca.symvar(row)
+    if not syms:
+        return row
+    v = ca.vertcat(*syms)
+    J = ca.jacobian(row, v)
+    if not J.is_constant() or not ca.substitute(row, v, ca.DM.zeros(v.numel())).is_zero():
+        return row
+    c = np.asarray(ca.evalf(J).full(), dtype=float).ravel()
+    keep = np.abs(c) >= 1e-12 * np.max(np.abs(c))
+    return ca.mtimes(ca.DM(np.where(keep, c, 0.0)).T, v)
+
+
 def closure_equations(e, loop, residuals, wrench, balance, drive, K, N, position_axes):
     """The cut edge's equations: kept residual combinations, balance, drive, dropped wrench components = 0."""
     label = f"{e.path} ({type(e).__name__}), {loop.describe()}"
     eqs = []
     kept = ca.mtimes(ca.sparsify(ca.DM(K.T)), residuals) if K.shape[1] else ca.SX(0, 1)
     for i in range(kept.numel()):
-        eqs.append(FlatEquation(kept[i], e.path, f"{label}, closure residual {direction(K[:, i], position_axes)}",
+        eqs.append(FlatEquation(kept[i], e.path, f"{label}, closure residual {direction(K[:, i], *position_axes)}",
                                 "loop closure (position level)"))
     for i in range(6):
         eqs.append(FlatEquation(balance[i], e.path, f"{label}, balance[{i}]",
@@ -236,7 +262,8 @@ def closure_equations(e, loop, residuals, wrench, balance, drive, K, N, position
     if drive is not None:
         eqs.append(FlatEquation(drive, e.path, f"{label}, drive", "axis load from the cut wrench"))
     gauge = ca.mtimes(ca.sparsify(ca.DM(N.T)), wrench) if N.shape[1] else ca.SX(0, 1)
+    gauge = ca.vertcat(*[_without_round_off(gauge[i]) for i in range(gauge.numel())]) if N.shape[1] else gauge
     for i in range(gauge.numel()):
-        eqs.append(FlatEquation(gauge[i], e.path, f"{label}, dropped constraint {direction(N[:, i], position_axes)}",
+        eqs.append(FlatEquation(gauge[i], e.path, f"{label}, dropped constraint {direction(N[:, i], *position_axes)}",
                                 "no wrench along a redundant constraint direction"))
     return eqs

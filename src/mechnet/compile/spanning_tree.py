@@ -600,14 +600,28 @@ class _Tree:
                 (ca.DM(ta.A), f"axes of the plane {label} turns in")
         return R, f"axes of {label}"
 
+    @staticmethod
+    def _loop_turn(e):
+        """A constant B taking a revolute cut's axis (in its frame_a) onto z, when that axis is not ±z:
+        the closure's angles are then taken about B's axes (`closure`), where a turn about the axis is
+        exactly (0, 0, θ); None otherwise. Any constant B leaves the residual zero only at closure."""
+        if e.dof != 1:
+            return None
+        n, s_lin = (np.asarray(ca.DM(a).full(), dtype=float).ravel() for a in e.motion_axes())
+        if np.any(s_lin) or not np.any(n) or not (n[0] or n[1]):
+            return None
+        return _onto_z(n / np.linalg.norm(n))
+
     def close_loops(self, tree):
         """Each cut edge: closure residuals (redundant planar directions dropped), balance, drive."""
         if not self.cuts:
             return
         frames = [self._loop_axes(e) for e in self.cuts]
-        parts = [closure(e, self.kin[self.node_of[e.frame_a]], self.kin[self.node_of[e.frame_b]], R)
-                 for e, (R, _) in zip(self.cuts, frames)]
-        axes = [name for _, name in frames]
+        turns = [self._loop_turn(e) for e in self.cuts]
+        parts = [closure(e, self.kin[self.node_of[e.frame_a]], self.kin[self.node_of[e.frame_b]], R, B)
+                 for e, (R, _), B in zip(self.cuts, frames, turns)]
+        axes = [(name, "frame_a axes" if B is None else "frame_a axes turned onto the pins' axis")
+                for (_, name), B in zip(frames, turns)]
         # residuals are written in the joint coordinates themselves (an expression along the loop's
         # tree path): index reduction must see which coordinates they constrain
         _, expanded = ca.substitute_inplace(self.let_symbols, self.let_values, [p[0] for p in parts], False)
@@ -622,7 +636,7 @@ class _Tree:
                                   (self.let_symbols, self.let_values), tunables, lambda k: loops[k].describe(), axes)
         for k, (e, (res, wrench, balance, drive), (K, N)) in enumerate(zip(self.cuts, parts, bases)):
             loop = replace(loops[k], kept=K.shape[1],
-                           dropped=tuple(direction(N[:, j], axes[k]) for j in range(N.shape[1])))
+                           dropped=tuple(direction(N[:, j], *axes[k]) for j in range(N.shape[1])))
             tree.loops.append(loop)
             tree.equations.extend(closure_equations(e, loop, res, wrench, balance, drive, K, N, axes[k]))
 
