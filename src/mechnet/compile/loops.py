@@ -7,11 +7,13 @@ load the tree, and it adds equations of its own:
 
 - six closure residuals: the relative position in the axes of the loop's
   root (`loop_root`, where the tree paths to the cut's two frames meet),
-  R_cᵀ(r_b − r_a − R_a r_rel(q)), or in world axes when the root does not turn
-  or every rotation down to the cut is about world z; and the
-  relative rotation M = R_rel(q)ᵀ R_aᵀ R_b as three angles atan2(skew part,
-  trace part), about frame_a's axes. The angles are exact for a rotation about
-  one axis and vanish only at M = 1, so there is no second branch at π. The
+  R_cᵀ(r_b − r_a − R_a r_rel(q)), or in constant axes (the world's, a plane's)
+  when the root does not turn or every rotation down to the cut is about one
+  fixed axis; and the relative rotation M = R_rel(q)ᵀ R_aᵀ R_b as three angles
+  atan2(skew part, trace part), about frame_a's axes turned so that a revolute
+  cut's pin is their z (B, `closure`'s `turn`). The angles are exact for a
+  rotation about one of those axes and vanish only at M = 1, so there is no
+  second branch at π. The
   root's axes move with the whole loop, so a planar loop's normal stays a
   constant direction there even on a turning base, and on the ground they are
   the world's. Index reduction differentiates the position twice: resolved in
@@ -27,7 +29,7 @@ load the tree, and it adds equations of its own:
 - for a joint, its drive: s_linᵀ f_a − s_angᵀ t_b = axis load (Modelica's
   tau = −n·frame_b.t, f = −n·frame_b.f).
 
-The constraint wrench λ = (R_cᵀR_a f_a, −t_b) pairs with the residuals by virtual work
+The constraint wrench λ = (R_cᵀR_a f_a, −B t_b) pairs with the residuals by virtual work
 (on the constraint manifold, λᵀ d(res)/dt is the power of the constraint
 forces). A planar loop of parallel revolutes has three residual directions
 that stay constant whatever the coordinates. They are found as the common
