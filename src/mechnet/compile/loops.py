@@ -50,6 +50,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from ..components.multibody.frames import exact
 from ..core.errors import StructureError
 from .artifacts import FlatEquation
 
@@ -123,12 +124,7 @@ def closure(e, ka, kb, axes=None, turn=None):
 
     def to_root(v):
         return v if axes is None else ca.mtimes(axes.T, v)
-    # frame_a's axes in the residual's, as exact numbers when both are constant: Rᵀ·R of a tilted mount
-    # is 1 only to round-off, and a 1e-17 coefficient in a dropped direction's equation was taken as a
-    # pivot to divide by (a four-bar on a tilted mount got a wrong acceleration)
-    a_axes = to_root(ka.R)
-    if ca.SX(a_axes).is_constant():
-        a_axes = ca.DM(_clean(np.asarray(ca.evalf(ca.SX(a_axes)).full(), dtype=float), 1e-14))
+    a_axes = to_root(ka.R)                     # frame_a's axes in the residual's
     residuals = ca.vertcat(to_root(d) - ca.mtimes(a_axes, r_rel),
                            _angles(ca.mtimes(B, ca.mtimes(ca.mtimes(R_rel.T, ca.mtimes(ka.R.T, kb.R)), B.T))))
     f_a, t_a = e.frame_a._values["f"], e.frame_a._values["t"]
@@ -143,11 +139,6 @@ def closure(e, ka, kb, axes=None, turn=None):
     return residuals, ca.vertcat(ca.mtimes(a_axes, f_a), -ca.mtimes(B, t_b)), balance, drive
 
 
-def _clean(A, tol=1e-12):
-    A = np.where(np.abs(A) < tol, 0.0, A)
-    return np.where(np.abs(np.abs(A) - 1.0) < tol, np.sign(A), A)
-
-
 def _split(P):
     """Orthonormal bases of the range of a projector P (6×6) and of its complement, axis-aligned when P is."""
     from scipy.linalg import qr
@@ -156,11 +147,11 @@ def _split(P):
         k = int(round(np.trace(A)))
         if k == 0:
             return np.zeros((6, 0))
-        q, _, _ = qr(_clean(A), pivoting=True)
-        q = _clean(q[:, :k])
+        q, _, _ = qr(exact(A), pivoting=True)
+        q = exact(q[:, :k])
         return q * np.where(q[np.argmax(np.abs(q), axis=0), range(k)] < 0, -1.0, 1.0)
 
-    P = _clean(P)
+    P = exact(P)
     return basis(np.eye(6) - P), basis(P)
 
 
@@ -219,7 +210,7 @@ def reduce_redundancy(cuts, residuals, coordinates, let, tunables, parent_descri
 def direction(n, position_axes="world axes", rotation_axes="frame_a axes"):
     """A residual direction in words: 'position z (world axes)', or a combination with its axes named once
     (positions are resolved in the loop root's axes, `position_axes`; rotations in frame_a's)."""
-    n = _clean(np.asarray(n, dtype=float))
+    n = exact(np.asarray(n, dtype=float))
     hits = [k for k in range(6) if n[k] != 0]
     kinds = [(kind, where) for kind, where, present in
              (("position", position_axes, any(k < 3 for k in hits)), ("rotation", rotation_axes, any(k >= 3 for k in hits)))
@@ -232,22 +223,6 @@ def direction(n, position_axes="world axes", rotation_axes="frame_a axes"):
         sign = (" − " if n[k] < 0 else " + ") if i else ("-" if n[k] < 0 else "")
         terms.append(f"{sign}{abs(n[k]):.3g}·{_DIRECTIONS[k]}")
     return f"the combination {''.join(terms)} ({axes})"
-
-
-def _without_round_off(row):
-    """A row linear in its variables with constant coefficients, without the coefficients that are
-    round-off of the largest (below 1e-12 of it): a wrench component along a dropped direction, where
-    a 1e-17 coefficient would be taken for a pivot to divide by."""
-    syms = ca.symvar(row)
-    if not syms:
-        return row
-    v = ca.vertcat(*syms)
-    J = ca.jacobian(row, v)
-    if not J.is_constant() or not ca.substitute(row, v, ca.DM.zeros(v.numel())).is_zero():
-        return row
-    c = np.asarray(ca.evalf(J).full(), dtype=float).ravel()
-    keep = np.abs(c) >= 1e-12 * np.max(np.abs(c))
-    return ca.mtimes(ca.DM(np.where(keep, c, 0.0)).T, v)
 
 
 def closure_equations(e, loop, residuals, wrench, balance, drive, K, N, position_axes):
@@ -264,7 +239,6 @@ def closure_equations(e, loop, residuals, wrench, balance, drive, K, N, position
     if drive is not None:
         eqs.append(FlatEquation(drive, e.path, f"{label}, drive", "axis load from the cut wrench"))
     gauge = ca.mtimes(ca.sparsify(ca.DM(N.T)), wrench) if N.shape[1] else ca.SX(0, 1)
-    gauge = ca.vertcat(*[_without_round_off(gauge[i]) for i in range(gauge.numel())]) if N.shape[1] else gauge
     for i in range(gauge.numel()):
         eqs.append(FlatEquation(gauge[i], e.path, f"{label}, dropped constraint {direction(N[:, i], *position_axes)}",
                                 "no wrench along a redundant constraint direction"))

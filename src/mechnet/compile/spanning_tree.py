@@ -40,7 +40,7 @@ import numpy as np
 
 from ..core.equation import der
 from ..core.errors import StructureError
-from ..components.multibody.frames import axis_rotation
+from ..components.multibody.frames import axis_rotation, exact
 from .artifacts import FlatEquation, FlatVariable
 from .loops import Loop, closure, closure_equations, direction, loop_edges, loop_root, reduce_redundancy
 
@@ -52,14 +52,9 @@ def _rotation_about_z(angle):
     return R
 
 
-def _tidy(M, tol=1e-14):
-    """Round-off in a constant rotation made exact: ~0 to 0 and ~±1 to ±1 (structural zeros survive)."""
-    M = np.where(np.abs(M) < tol, 0.0, M)
-    return np.where(np.abs(np.abs(M) - 1.0) < tol, np.sign(M), M)
-
-
-def _rz(a):
-    return np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+def _constant_rotation(n, angle):
+    """axis_rotation as numbers, round-off made exact."""
+    return exact(np.asarray(ca.evalf(ca.SX(axis_rotation(ca.DM(n), angle))).full(), dtype=float), 1e-14)
 
 
 def _onto_z(n):
@@ -69,9 +64,7 @@ def _onto_z(n):
         return np.eye(3) if n[2] > 0 else np.diag([1.0, -1.0, -1.0])
     k = np.cross(n, [0.0, 0.0, 1.0])
     sin = np.linalg.norm(k)
-    k, angle = k / sin, np.arctan2(sin, n[2])
-    K = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    B = _tidy(np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K)
+    B = _constant_rotation(k / sin, np.arctan2(sin, n[2]))
     return B if np.max(np.abs(B @ n - [0.0, 0.0, 1.0])) <= 1e-14 else None
 
 
@@ -92,7 +85,13 @@ class _Turn:
     def fixed(self):
         """R as numbers when the angle is a number, else None."""
         a = ca.SX(self.angle)
-        return _tidy(self.A @ _rz(float(ca.evalf(a))) @ self.B) if a.is_constant() else None
+        return exact(self.A @ _constant_rotation([0, 0, 1], float(ca.evalf(a))) @ self.B, 1e-14) \
+            if a.is_constant() else None
+
+
+def _motion_axes(e):
+    """A joint's (angular, linear) unit axes as numbers."""
+    return tuple(np.asarray(ca.DM(a).full(), dtype=float).ravel() for a in e.motion_axes())
 
 
 def _next_turn(e, R_rel, turn, forward):
@@ -109,15 +108,15 @@ def _next_turn(e, R_rel, turn, forward):
         M = np.asarray(ca.evalf(R).full(), dtype=float)
         M = M if forward else M.T
         if fixed is not None:
-            return _Turn(_tidy(fixed @ M), ca.SX(0.0), np.eye(3))
-        C = _tidy(turn.B @ M @ turn.B.T, 1e-12)           # B·M = C·B: C must turn about z
+            return _Turn(exact(fixed @ M, 1e-14), ca.SX(0.0), np.eye(3))
+        C = exact(turn.B @ M @ turn.B.T)           # B·M = C·B: C must turn about z
         if C[2, 2] != 1.0 or np.any(C[2, :2]) or np.any(C[:2, 2]):
             return None
         return _Turn(turn.A, turn.angle + float(np.arctan2(C[1, 0], C[0, 0])), turn.B)
     if e.dof != 1:
         return None
     q = e.coordinate()
-    n, s_lin = (np.asarray(ca.DM(a).full(), dtype=float).ravel() for a in e.motion_axes())
+    n, s_lin = _motion_axes(e)
     if any(not ca.is_equal(v, q) for v in ca.symvar(R)):
         return None
     if not np.any(n):
@@ -130,7 +129,7 @@ def _next_turn(e, R_rel, turn, forward):
     sign = 1.0 if forward else -1.0
     if fixed is not None:                                    # a new axis: Rot_n(x) = Bᵀ·Rz(x)·B with B·n = z
         B = _onto_z(n)
-        return None if B is None else _Turn(_tidy(fixed @ B.T), sign * q, B)
+        return None if B is None else _Turn(exact(fixed @ B.T, 1e-14), sign * q, B)
     m = turn.B @ n                                           # B·Rot_n(x) = Rot_{B·n}(x)·B: B·n must be ±z,
     if abs(m[0]) > 1e-14 or abs(m[1]) > 1e-14:               # measured by the tilt (not by 1 − cos(tilt))
         return None
@@ -607,7 +606,7 @@ class _Tree:
         exactly (0, 0, θ); None otherwise. Any constant B leaves the residual zero only at closure."""
         if e.dof != 1:
             return None
-        n, s_lin = (np.asarray(ca.DM(a).full(), dtype=float).ravel() for a in e.motion_axes())
+        n, s_lin = _motion_axes(e)
         if np.any(s_lin) or not np.any(n) or not (n[0] or n[1]):
             return None
         return _onto_z(n / np.linalg.norm(n))

@@ -39,12 +39,27 @@ def solvable_coefficient(coef: ca.SX, known_symbols: set) -> bool:
 
 
 def solve_linear_for(residual: ca.SX, var: ca.SX, parameter_hashes: set):
-    """Return var's explicit solution of residual = 0, or None if not safely linear."""
+    """Return var's explicit solution of residual = 0, or None if not safely linear. A constant
+    coefficient must also be more than round-off of the row's largest constant one: a row
+    1e-17·x + 1·y (the identity of a tilted mount's Rᵀ·R, to round-off) is no equation for x."""
     coef = ca.jacobian(residual, var)
     if ca.depends_on(coef, var) or not solvable_coefficient(coef, parameter_hashes):
         return None
+    if coef.is_constant() and abs(float(ca.evalf(coef))) < ROUND_OFF * _largest_constant_coefficient(residual):
+        return None
     rest = ca.substitute(residual, var, ca.SX(0.0))
     return -rest / coef
+
+
+ROUND_OFF = 1e-12
+
+
+def _largest_constant_coefficient(residual: ca.SX) -> float:
+    """The largest |constant coefficient| of the residual's variables (0 when none is constant)."""
+    syms = ca.symvar(residual)
+    J = ca.jacobian(residual, ca.vertcat(*syms)) if syms else ca.SX(1, 0)
+    values = [abs(float(ca.evalf(J[0, k]))) for k in range(J.size2()) if J[0, k].is_constant()]
+    return max(values, default=0.0)
 
 
 def compose(symbols_in_order: list, local: list, extra: list):

@@ -178,3 +178,15 @@ def test_a_two_by_two_block_is_solved_by_cramers_rule_whatever_its_row_scales():
     scale = np.diag([1e6, 1e-3])
     x = np.asarray(f(scale @ np.array([[2.0, 1.0], [1.0, 3.0]]), scale @ np.array([1.0, 2.0]))).ravel()
     np.testing.assert_allclose(x, [0.2, 0.6], rtol=4 * np.finfo(float).eps, atol=0)
+
+
+def test_a_round_off_coefficient_is_no_pivot():
+    """1e-17·x + y − 1 = 0 (a tilted mount's Rᵀ·R, identity to round-off, in a wrench equation) is no
+    equation for x: dividing by 1e-17 gave a four-bar on a tilted mount a wrong acceleration (20.1 ->
+    8.3 rad/s² at its start). A small coefficient that is the row's own scale still is one."""
+    from mechnet.compile.tearing import solve_linear_for
+    x, y = ca.SX.sym("x"), ca.SX.sym("y")
+    assert solve_linear_for(1e-17 * x + y - 1, x, set()) is None
+    assert solve_linear_for(1e-17 * x + 3e-17 * y - 1e-17, x, set()) is not None
+    sol = solve_linear_for(1e-17 * x + y - 1, y, set())
+    assert float(ca.evalf(ca.substitute(sol, x, 0.0))) == 1.0

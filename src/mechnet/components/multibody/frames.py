@@ -50,6 +50,13 @@ def axis_rotation(n, angle):
     return out
 
 
+def exact(M, tol=1e-12):
+    """A constant rotation (or projector) with its round-off made exact: ~0 to 0 and ~±1 to ±1, so
+    structural zeros survive and products with it stay small."""
+    M = np.where(np.abs(M) < tol, 0.0, M)
+    return np.where(np.abs(np.abs(M) - 1.0) < tol, np.sign(M), M)
+
+
 def to_matrix(R9):
     """The 3x3 matrix of a row-major 9-vector (the connector's `R`)."""
     return ca.reshape(R9, 3, 3).T
