@@ -8,7 +8,6 @@ for the four-bar, x = r cos θ + √(l² − r² sin² θ) for the slider-crank.
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 import mechnet as mn
 from mechnet.components import multibody as mb

@@ -55,28 +55,17 @@ def _newton(residual: ca.Function, jacobian: ca.Function, w0: np.ndarray, args: 
     return w_val, r
 
 
-DENSE_MAX = 64      # below this size a dense solve is cheaper than building a sparse matrix (a loop: 7)
-
-
 def _newton_step(J: ca.DM, r: np.ndarray):
-    """The Newton step from the Jacobian J (sparse DM): sparse LU for large systems (a chain stays O(N)),
-    dense below DENSE_MAX unknowns; least squares when J is singular or not square; None when J or r
-    is not finite."""
+    """The Newton step from the Jacobian J (sparse DM): sparse LU (a chain stays O(N)); least squares
+    when J is singular or not square; None when J or r is not finite."""
     from scipy.sparse import csc_matrix
     from scipy.sparse.linalg import spsolve
 
     step = None
-    square = J.shape[0] == J.shape[1] and J.shape[0] > 0
-    with warnings.catch_warnings(), np.errstate(all="ignore"):
-        warnings.simplefilter("ignore")
-        if square and J.shape[0] <= DENSE_MAX:
-            dense = np.asarray(J.full(), dtype=float)
-            try:
-                step = np.linalg.solve(dense, -r)
-            except np.linalg.LinAlgError:
-                step = None
-        elif square:
-            rows, cols = J.sparsity().get_triplet()
+    if J.shape[0] == J.shape[1] and J.shape[0] > 0:
+        rows, cols = J.sparsity().get_triplet()
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")
             step = spsolve(csc_matrix((np.asarray(J.nonzeros(), dtype=float), (rows, cols)), shape=J.shape), -r)
     if step is None or not np.all(np.isfinite(step)):
         dense = np.asarray(J.full(), dtype=float)

@@ -153,17 +153,12 @@ def jacobian_options(dae, plugin: str, extra: dict) -> dict:
     return dae.info["_jacobian_options"]
 
 
-@contextlib.contextmanager
 def _solver_messages_muted(mute: bool):
     """SUNDIALS's error messages reach Python's sys.stderr through CasADi, also when a piece runs out of
     the step budget it was given on purpose (`_step_budget`): the run retries it shorter, and the
     message only confused users (the demo's Cartesian pendulum printed six). Muted for those calls;
     a real failure is reported by the run itself (IntegrationError)."""
-    if not mute:
-        yield
-        return
-    with contextlib.redirect_stderr(io.StringIO()):
-        yield
+    return contextlib.redirect_stderr(io.StringIO()) if mute else contextlib.nullcontext()
 
 
 def _call(F, xs, zs, p):
@@ -290,13 +285,15 @@ def _selection_with_states(cm, names):
         if set(sel.x_names) == set(names):
             return sel
     factory = cm.selection_factory
-    for dummies in (selections(factory) or []) if factory is not None else []:
+    if factory is None:
+        return None
+    for dummies in selections(factory) or []:                  # None past MAX_SELECTIONS: the default one
         if set(state_names(factory, dummies)) == set(names):
             try:
                 return cm.selection(dummies)
             except (MechnetError, RuntimeError):      # that selection cannot be compiled: the default one
                 return None
-    return None                                       # (also past MAX_SELECTIONS: the default one)
+    return None
 
 
 def _check_time(value, what: str) -> float:

@@ -96,6 +96,15 @@ def dae_arguments(dae) -> list:
                                          ("u", dae.u.numel()), ("p", dae.p.numel()), ("d", dae.d.numel()))]
 
 
+def _observed_of(dae, names, label) -> ca.Function:
+    """The observed values of `names` alone (0 for a name the selection does not observe), as a Function
+    of the compiled model's arguments."""
+    args = dae_arguments(dae)
+    y = dae.observed(*args)
+    position = {name: k for k, name in enumerate(dae.observed_names)}
+    return ca.Function(label, args, [ca.vertcat(*[y[position[n]] if n in position else ca.SX(0) for n in names])])
+
+
 class SelectionMonitor:
     """Watches the conditioning of the dependent block and proposes a better selection."""
 
@@ -128,12 +137,8 @@ class SelectionMonitor:
         """The variables the selection depends on (`factory.watched_indices()`), at n points in one call.
         Only these are evaluated, not every observed name; cached per compiled selection and n."""
         if "_watched" not in dae.info:                    # per compiled selection, across runs
-            args = dae_arguments(dae)
-            y = dae.observed(*args)
-            position = {name: k for k, name in enumerate(dae.observed_names)}
-            out = ca.vertcat(*[y[position[self.names[k]]] if self.names[k] in position else ca.SX(0)
-                               for k in self.factory.watched_indices()])
-            dae.info["_watched"] = (ca.Function("watched", args, [out]), {})
+            names = [self.names[k] for k in self.factory.watched_indices()]
+            dae.info["_watched"] = (_observed_of(dae, names, "watched"), {})
         single, maps = dae.info["_watched"]
         return mapped_in(maps, single, n)
 
@@ -141,11 +146,7 @@ class SelectionMonitor:
         """The values of `names` at one point of the running selection `dae` (0 for a name it does not
         observe), without evaluating every observed name; cached per compiled selection."""
         if "_selection_values" not in dae.info:
-            args = dae_arguments(dae)
-            y = dae.observed(*args)
-            position = {name: k for k, name in enumerate(dae.observed_names)}
-            out = ca.vertcat(*[y[position[n]] if n in position else ca.SX(0) for n in self.names])
-            dae.info["_selection_values"] = NumpyCall(dense(ca.Function("selection_values", args, [out])))
+            dae.info["_selection_values"] = NumpyCall(dense(_observed_of(dae, self.names, "selection_values")))
         return dae.info["_selection_values"](t, x, z, u, p, d)[0].ravel()
 
     def whole_branch(self, values, params) -> Verdict:
