@@ -118,7 +118,7 @@ def bench_n(n: int):
     row["methods"] = {}
     for method in METHODS:
         r = {}
-        before = set(cm._integrators)
+        before = set(cm.integrators().keys())
         t0 = time.perf_counter()
         res = cm.simulate(T_END, rtol=RTOL, atol=ATOL, method=method, n_out=N_OUT)
         r["first"] = time.perf_counter() - t0
@@ -130,8 +130,8 @@ def bench_n(n: int):
         r["sim"], res = best_of(lambda: cm.simulate(T_END, rtol=RTOL, atol=ATOL, method=method, n_out=N_OUT),
                                 r["sim_repeats"])
         # The bare CasADi integrator mechnet built (private cache; benchmark only).
-        (key,) = set(cm._integrators) - before
-        Fm = cm._integrators[key]
+        (key,) = set(cm.integrators().keys()) - before
+        Fm = cm.integrators()[key]
         pvec = np.concatenate([dae.u_default, dae.p_value, dae.d_value, [0.0, T_END]]).astype(float)
         xs0 = res.x[0] / xn
         r["integ"], _ = best_of(lambda: Fm(x0=xs0, p=pvec))

@@ -232,15 +232,15 @@ def bench_n(n: int, pydy_max: int):
     row["ops"] = int(dae.ode.n_instructions())
     row["mn"] = {}
     for method in METHODS:
-        before = set(cm._integrators)
+        before = set(cm.integrators().keys())
         first, best, reps, res = first_then_best(
             lambda: cm.simulate(T_END, rtol=RTOL, atol=ATOL, method=method, n_out=N_OUT))
         assert res.success, f"mechnet {method} failed at N={n}: {res.failure}"
         assert np.allclose(res.t, grid), "output grids differ"
         # The bare call of the CasADi integrator mechnet built (private cache; benchmark only):
         # the simulation without mechnet's initialisation and output evaluation.
-        (key,) = set(cm._integrators) - before
-        Fm = cm._integrators[key]
+        (key,) = set(cm.integrators().keys()) - before
+        Fm = cm.integrators()[key]
         pvec = np.concatenate([dae.u_default, dae.p_value, dae.d_value, [0.0, T_END]]).astype(float)
         xs0 = res.x[0] / np.array(dae.x_nominal, dtype=float)
         integ, _ = best_of(lambda: Fm(x0=xs0, p=pvec))

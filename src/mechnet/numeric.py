@@ -11,6 +11,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from .caches import built
+
 
 class NumpyCall:
     """f(*arrays) -> list of arrays shaped like f's outputs (a column stays 2-D: (n, 1)).
@@ -65,6 +67,4 @@ def mapped(f: ca.Function, n: int) -> NumpyCall:
 def mapped_in(cache: dict, f: ca.Function, n: int) -> NumpyCall:
     """`mapped(f, n)`, kept in `cache` under n (a compiled model's, so across runs: building the map
     costs as much as evaluating it)."""
-    if n not in cache:
-        cache[n] = mapped(f, n)
-    return cache[n]
+    return built(cache, n, lambda: mapped(f, n))

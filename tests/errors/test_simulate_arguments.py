@@ -19,6 +19,9 @@ def cm():
     (dict(rtol=-1.0), mn.MechnetError, "rtol"),
     (dict(atol=0.0), mn.MechnetError, "atol"),
     (dict(rtol="tight"), mn.MechnetError, "rtol"),
+    (dict(rtol=10.0), mn.MechnetError, r"rtol = 10\.0 must lie in \[1e-14, 1\)"),   # off by the amplitude
+    (dict(rtol=1.0), mn.MechnetError, "rtol"),
+    (dict(rtol=1e-16), mn.MechnetError, "rtol"),
     (dict(start={"j1.phi": "a"}), mn.InitializationError, r"start value j1\.phi"),
     (dict(guess={"j1.w": float("inf")}), mn.InitializationError, r"guess j1\.w"),
     (dict(t_out=[0.0, 0.5, 1.0], n_out=3), mn.MechnetError, "n_out or t_out"),

@@ -209,6 +209,13 @@ class SemiExplicitDAE:
     zero_directions: tuple = ()  # −1 falling, +1 rising, 0 both
     info: dict = field(default_factory=dict)
 
+    def __getstate__(self):
+        """Pickled without the run-time caches kept in `info` under "_" keys (maps, Newton functions):
+        they are rebuilt on first use, and would only make the pickle larger."""
+        state = dict(self.__dict__)
+        state["info"] = {k: v for k, v in self.info.items() if not k.startswith("_")}
+        return state
+
     @property
     def is_ode(self) -> bool:
         return self.z.numel() == 0

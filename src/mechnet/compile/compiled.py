@@ -1,8 +1,15 @@
 """CompiledModel: the user's handle on the pipeline's artifacts and the simulator."""
 from __future__ import annotations
 
+import pickle
+
+import casadi as ca
+
+from ..caches import BUILD_LOCK, PerThread, built
 from .artifacts import SemiExplicitDAE
 from .index_reduction import grouped_differentiations
+
+INTEGRATORS_PER_THREAD = 32     # output patterns and table shapes each thread keeps integrators for
 
 
 class CompiledModel:
@@ -13,8 +20,28 @@ class CompiledModel:
         self.stages = stages
         self.timings = timings
         self.options = options
-        self._integrators: dict = {}
+        self._integrators = PerThread(INTEGRATORS_PER_THREAD)
         self._selections: dict = {}
+
+    def integrators(self):
+        """This thread's integrators (`caches.py`: one integrator cannot serve two threads at once)."""
+        return self._integrators.cache()
+
+    def __getstate__(self):
+        """A compiled model crosses a process boundary (multiprocessing, dask) as CasADi's serialisation
+        of its expressions: plain pickle refuses SX ("Cannot pickle SX objects without a casadi
+        context"), and one context for the whole model keeps the expressions' shared nodes shared.
+        Integrators and other selections are rebuilt on demand in the receiving process."""
+        state = {k: v for k, v in self.__dict__.items() if k not in ("_integrators", "_selections")}
+        with BUILD_LOCK, ca.global_pickle_context():
+            return {"casadi": pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL),
+                    "integrators_per_thread": self._integrators.size}
+
+    def __setstate__(self, packed):
+        with BUILD_LOCK, ca.global_unpickle_context():
+            self.__dict__.update(pickle.loads(packed["casadi"]))
+        self._integrators = PerThread(packed["integrators_per_thread"])
+        self._selections = {}
 
     @property
     def dae(self) -> SemiExplicitDAE:
@@ -31,12 +58,11 @@ class CompiledModel:
         from .casadi_dae import emit
         from .structure import analyze_structure
 
-        if dummies not in self._selections:
+        def build():
             flat = self.selection_factory.build(dummies)
             structure = analyze_structure(flat, self.options.structure)
-            self._selections[dummies] = emit(self.stages["flat"], flat, self.stages["aliases"], structure,
-                                             self.options.emit)
-        return self._selections[dummies]
+            return emit(self.stages["flat"], flat, self.stages["aliases"], structure, self.options.emit)
+        return built(self._selections, dummies, build)
 
     @property
     def n_states(self) -> int:

@@ -19,6 +19,7 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
+from ..caches import BUILD_LOCK, built
 from ..core.errors import StructureError
 from ..numeric import NumpyCall, dense, mapped
 from .artifacts import FlatEquation, FlatSystem, FlatVariable
@@ -281,6 +282,13 @@ class SelectionFactory:
         self._args = (all_syms, flat.time, params)
         self._jacobians = {}
 
+    def __getstate__(self):
+        """Pickled without what runs built and cached on it (Jacobian maps, the branch check's traces):
+        rebuilt on first use in the receiving process."""
+        state = {k: v for k, v in self.__dict__.items() if not k.startswith("_") or k in ("_pvals", "_args")}
+        state["_jacobians"] = {}
+        return state
+
     def jacobian(self, rows: tuple, cols: tuple, values, params=None, memo: dict | None = None) -> np.ndarray:
         """∂(rows)/∂(cols) at one point; `memo` keeps those already evaluated at this point."""
         if memo is not None and (rows, cols) in memo:
@@ -295,16 +303,16 @@ class SelectionFactory:
         """∂(rows)/∂(cols) as a Function of (all variables, time, parameters); mapped over n points when
         n is given. Built once per block (and n)."""
         key = (rows, cols)
-        if key not in self._jacobians:
+
+        def build():
             residuals = self.flat.expand([self.equations[e].residual for e in rows])
             jac = ca.jacobian(ca.vertcat(*residuals), ca.vertcat(*[self.symbols[v] for v in cols]))
-            self._jacobians[key] = ca.Function("dd_jacobian", list(self._args), [jac])
+            return ca.Function("dd_jacobian", list(self._args), [jac])
+        single = built(self._jacobians, key, build)
         if n is None:
-            return self._jacobians[key]
-        if (key, n) not in self._jacobians:          # n = 1: one point, through numpy buffers all the same
-            self._jacobians[(key, n)] = mapped(self._jacobians[key], n) if n > 1 else \
-                NumpyCall(dense(self._jacobians[key]))
-        return self._jacobians[(key, n)]
+            return single
+        # n = 1: one point, through numpy buffers all the same
+        return built(self._jacobians, (key, n), lambda: mapped(single, n) if n > 1 else NumpyCall(dense(single)))
 
     def quality_batch(self, levels, values_matrix: np.ndarray, params=None) -> np.ndarray:
         """Signed `quality` at many points at once (rows of values_matrix), with one mapped evaluation."""
@@ -332,13 +340,17 @@ class SelectionFactory:
         coordinates alone, not the speeds and accelerations the constraints also hold (which cost as
         much to evaluate as the model's right-hand side)."""
         if not hasattr(self, "_watched"):
-            rows = [e for e in range(len(self.equations)) if e in self.graph.parent or e in self.graph.diff]
-            exprs = self.flat.expand([self.equations[e].residual for e in rows])
-            cols = [self.symbols[v] for v in range(len(self.variables)) if v in self.graph.antider]
-            jac = ca.jacobian(ca.vertcat(*exprs), ca.vertcat(*cols)) if exprs and cols else ca.SX(0, 1)
-            used = {s.element_hash() for s in ca.symvar(jac)}
-            self._watched = [k for k, sym in enumerate(self.symbols) if sym.element_hash() in used]
+            with BUILD_LOCK:
+                self._watched = self._find_watched()
         return self._watched
+
+    def _find_watched(self) -> list:
+        rows = [e for e in range(len(self.equations)) if e in self.graph.parent or e in self.graph.diff]
+        exprs = self.flat.expand([self.equations[e].residual for e in rows])
+        cols = [self.symbols[v] for v in range(len(self.variables)) if v in self.graph.antider]
+        jac = ca.jacobian(ca.vertcat(*exprs), ca.vertcat(*cols)) if exprs and cols else ca.SX(0, 1)
+        used = {s.element_hash() for s in ca.symvar(jac)}
+        return [k for k, sym in enumerate(self.symbols) if sym.element_hash() in used]
 
     def can_degrade(self) -> bool:
         """False when every selection Jacobian is constant (a gear): the choice never needs revisiting.

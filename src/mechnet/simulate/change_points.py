@@ -18,6 +18,7 @@ import casadi as ca
 import numpy as np
 from scipy.interpolate import BarycentricInterpolator, CubicHermiteSpline
 
+from ..caches import built
 from ..core.errors import MechnetError
 from ..numeric import mapped_in
 from .events import Event
@@ -55,11 +56,12 @@ class ChangePoints:
     def _alg_jacobian_function(self, n):
         """∂alg/∂z of the running compiled selection, mapped over n points (cached per selection, across
         runs)."""
-        if "_alg_jacobians" not in self.dae.info:
-            args = dae_arguments(self.dae)
-            self.dae.info["_alg_jacobians"] = (ca.Function("alg_z", args, [ca.jacobian(self.dae.alg(*args), args[2])]),
-                                               {})
-        single, maps = self.dae.info["_alg_jacobians"]
+        dae = self.dae
+
+        def build():
+            args = dae_arguments(dae)
+            return ca.Function("alg_z", args, [ca.jacobian(dae.alg(*args), args[2])]), {}
+        single, maps = built(dae.info, "_alg_jacobians", build)
         return mapped_in(maps, single, n)
 
     def _pass_change_point(self, grid, limit=None):

@@ -27,6 +27,7 @@ import warnings
 import casadi as ca
 import numpy as np
 
+from ..caches import BUILD_LOCK
 from ..core.errors import InitializationError, IntegrationError, MechnetError, ParameterError, UnknownNameError
 from ..core.declarations import finite_number
 from ..numeric import mapped_in
@@ -47,6 +48,8 @@ SOLVER_STEPS_PER_CHECK = 16.0   # the state-selection monitor checks its quality
 HORIZON_REACH = 2.0             # a piece aimed at a predicted switch reaches this many times as far,
 PIECE_GROWTH = 4                # and one that needed no cut makes the next this many times longer (both
                                 # while the run has had no switch, change point or state event)
+RTOL_RANGE = (1e-14, 1.0)        # a relative error per step: 1 or more lets a step be wrong by its whole
+                                # size; below 1e-14 round-off in double precision cannot meet it
 MAX_PIECE_POINTS = 20_000       # monitor points in one piece at most
 
 
@@ -70,7 +73,8 @@ def _plugin(dae, method: str) -> tuple[str, str, dict]:
 
 
 class _Integrators:
-    """Builds and caches one integrator per output pattern (normalised grid)."""
+    """Builds and caches one integrator per output pattern (normalised grid), in this thread's cache of the
+    compiled model (`caches.py`: an integrator cannot serve two threads at once)."""
 
     def __init__(self, cm, dae, plugin, extra, rtol, atol, max_steps, inputs):
         self.cm, self.dae, self.plugin, self.extra = cm, dae, plugin, extra
@@ -81,40 +85,44 @@ class _Integrators:
     def get(self, tau: tuple, max_steps: int | None = None):
         """Integrator over a normalised grid (t = t0 + τ·h): reusable for every segment of that pattern.
         `max_steps` lowers the step limit of this call (a power of two, so few variants are built)."""
-        key = self.base_key + (tau, max_steps)
-        if key not in self.cm._integrators:
-            self.cm._integrators[key] = self._build(tau, max_steps=max_steps)
-        return self.cm._integrators[key]
+        return self._cached(self.base_key + (tau, max_steps), lambda: self._build(tau, max_steps=max_steps))
 
     def get_real(self, points: tuple):
         """Integrator over a fixed grid in real time: no time scaling in the right-hand side.
 
         Used for plain segments (reused when the same grid is simulated again);
-        the parameters keep the [u; p; d; t0; h] layout, t0 and h unused.
+        the parameters keep the [u; p; d; t0; h; tables] layout, t0 and h unused.
         """
-        key = self.base_key + ("real", points)
-        if key not in self.cm._integrators:
-            self.cm._integrators[key] = self._build(tuple(points[1:]), t0_real=points[0])
-        return self.cm._integrators[key]
+        return self._cached(self.base_key + ("real", points),
+                            lambda: self._build(tuple(points[1:]), t0_real=points[0]))
+
+    def _cached(self, key, build):
+        cache = self.cm.integrators()
+        if key not in cache:
+            with BUILD_LOCK:
+                cache[key] = build()
+        return cache[key]
 
     def _build(self, tau: tuple, t0_real=None, max_steps=None):
-        """Parameters of the integrator: [u; p; d; t0; h]."""
+        """Parameters of the integrator: [u; p; d; t0; h; tables] (tables: `InputPlan.table_data`)."""
         dae = self.dae
         sym = ca.MX if self.inputs.varying else ca.SX
         xs, zs = sym.sym("xs", dae.x.numel()), sym.sym("zs", dae.z.numel())
         s, t0, h = sym.sym("tau"), sym.sym("t0"), sym.sym("h")
         u, p, d = sym.sym("u", dae.u.numel()), sym.sym("p", dae.p.numel()), sym.sym("d", dae.d.numel())
+        tables = sym.sym("tables", self.inputs.table_data().size)
         xn = ca.DM(list(dae.x_nominal)) if dae.x_nominal else ca.DM(0, 1)
         zn = ca.DM(list(dae.z_nominal)) if dae.z_nominal else ca.DM(0, 1)
         t = t0 + s * h if t0_real is None else s
         if self.inputs.varying:
-            interp = self.inputs.interpolants()
-            u_t = ca.vertcat(*[interp[k](t) if k in interp else u[k] for k in range(dae.u.numel())])
+            interp = self.inputs.interpolated(t, tables)
+            u_t = ca.vertcat(*[interp[k] if k in interp else u[k] for k in range(dae.u.numel())])
         else:
             u_t = u
         args = (t, xn * xs, zn * zs, u_t, p, d)
         rate = dae.ode(*args) / xn
-        spec = {"x": xs, "t": s, "p": ca.vertcat(u, p, d, t0, h), "ode": h * rate if t0_real is None else rate}
+        spec = {"x": xs, "t": s, "p": ca.vertcat(u, p, d, t0, h, tables),
+                "ode": h * rate if t0_real is None else rate}
         if dae.z.numel():
             spec["z"] = zs
             spec["alg"] = dae.alg(*args)
@@ -194,6 +202,10 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     dae = cm.dae
     t_start, t_end = _check_time(t_start, "t_start"), _check_time(t_end, "t_end")
     rtol, atol = _check_tolerance(rtol, "rtol"), _check_tolerance(atol, "atol")
+    if not RTOL_RANGE[0] <= rtol < RTOL_RANGE[1]:
+        why = "each step could be wrong by its whole size" if rtol >= 1 else "double precision cannot meet it"
+        raise MechnetError(f"rtol = {rtol!r} must lie in [{RTOL_RANGE[0]:g}, {RTOL_RANGE[1]:g}): it is the relative "
+                           f"error each step may make, and at {rtol:g} {why}")
     if continue_from is not None:
         if not isinstance(continue_from, Result):
             raise MechnetError(f"continue_from takes a Result, got {type(continue_from).__name__}")
@@ -230,7 +242,8 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
         _check_value(value, f"guess {name}")
 
     wall = _time.perf_counter()
-    init = initialize(dae, t_start, plan.constant, p, starts, guess or {}, steady_state)
+    with BUILD_LOCK:                 # builds the initial system on a model's first run (caches.py)
+        init = initialize(dae, t_start, plan.constant, p, starts, guess or {}, steady_state)
     events = breakpoints(dae.time_events, t_start, t_end)
     grid = output_grid(grid, events)
     run = _Run(cm, dae, plugin, extra, rtol, atol, max_steps, plan, p, d, init)
@@ -337,6 +350,7 @@ class _Run(StateEvents, Reselection, ChangePoints):
 
     def __init__(self, cm, dae, plugin, extra, rtol, atol, max_steps, plan, p, d, init):
         self.cm, self.plan, self.p, self.d = cm, plan, p, d
+        self.tables = plan.table_data()
         self.settings = (plugin, extra, rtol, atol, max_steps)
         self._use(dae)
         self.T, self.X, self.Z, self.D = [], [], [], []
@@ -360,12 +374,13 @@ class _Run(StateEvents, Reselection, ChangePoints):
         self.D.append(self.dae)
 
     def pvec(self, t0, h):
-        return np.concatenate([self.plan.constant, self.p, self.d, [t0, h]])
+        return np.concatenate([self.plan.constant, self.p, self.d, [t0, h], self.tables])
 
     def integrate(self, grid, events, progress):
-        self.monitor = SelectionMonitor.create(self.cm, self.dae)
-        if self.monitor is not None:
-            self._select_for_branch(grid[0])
+        with BUILD_LOCK:             # the branch check builds its functions on a model's first run
+            self.monitor = SelectionMonitor.create(self.cm, self.dae)
+            if self.monitor is not None:
+                self._select_for_branch(grid[0])
         self._record(grid[0])
         if self.dae.x.numel() == 0:
             for t in grid[1:]:
@@ -500,6 +515,8 @@ class _Run(StateEvents, Reselection, ChangePoints):
         fraction = 1.0                                # of the first interval, when pieces must be short
         grid_set = set(grid.tolist())
         t_cur, k = grid[0], 0                         # current time; next output index is k + 1
+        if not self._arm(t_cur):                      # a condition crossing at the start fired at once
+            return
         while k < n_int:
             per_piece = max(1, min(per_piece, MAX_PIECE_POINTS // density))
             k_end = min(k + per_piece, n_int)

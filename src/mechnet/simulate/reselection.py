@@ -14,6 +14,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from ..caches import built
 from ..core.errors import MechnetError
 from ..numeric import NumpyCall, dense, mapped_in
 from .branch import Verdict, check_branch, state_names
@@ -136,18 +137,16 @@ class SelectionMonitor:
     def watched(self, dae, n):
         """The variables the selection depends on (`factory.watched_indices()`), at n points in one call.
         Only these are evaluated, not every observed name; cached per compiled selection and n."""
-        if "_watched" not in dae.info:                    # per compiled selection, across runs
-            names = [self.names[k] for k in self.factory.watched_indices()]
-            dae.info["_watched"] = (_observed_of(dae, names, "watched"), {})
-        single, maps = dae.info["_watched"]
+        single, maps = built(dae.info, "_watched", lambda: (   # per compiled selection, across runs
+            _observed_of(dae, [self.names[k] for k in self.factory.watched_indices()], "watched"), {}))
         return mapped_in(maps, single, n)
 
     def values_at(self, dae, t, x, z, u, p, d) -> np.ndarray:
         """The values of `names` at one point of the running selection `dae` (0 for a name it does not
         observe), without evaluating every observed name; cached per compiled selection."""
-        if "_selection_values" not in dae.info:
-            dae.info["_selection_values"] = NumpyCall(dense(_observed_of(dae, self.names, "selection_values")))
-        return dae.info["_selection_values"](t, x, z, u, p, d)[0].ravel()
+        values = built(dae.info, "_selection_values",
+                       lambda: NumpyCall(dense(_observed_of(dae, self.names, "selection_values"))))
+        return values(t, x, z, u, p, d)[0].ravel()
 
     def whole_branch(self, values, params) -> Verdict:
         """A selection that holds on the whole branch through this point (`values` follow `names`,
@@ -194,12 +193,12 @@ class SelectionMonitor:
 
 def reset_states(dae) -> tuple:
     """Names of the states some state event of the compiled model sets (its transitions), found once."""
-    if "_reset_states" not in dae.info:
+    def find():
         names = set()
         if dae.transition:
             args = dae_arguments(dae)
             for transition in dae.transition:
                 x_plus = transition(*args)[0]
                 names.update(n for k, n in enumerate(dae.x_names) if not ca.is_equal(x_plus[k], args[1][k], 2))
-        dae.info["_reset_states"] = tuple(sorted(names))
-    return dae.info["_reset_states"]
+        return tuple(sorted(names))
+    return built(dae.info, "_reset_states", find)
