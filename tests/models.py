@@ -178,7 +178,9 @@ def slider_crank(r=0.1, l=0.35, theta0=0.4, crank_drive=None, piston_drive=None,
                                    {"phi_start": theta0, "w_start": 0.0})))
     rod_j = m.add(mb.Revolute(name="joint_b", n=[0, 0, 1], phi_guess=beta - theta0))
     wrist = m.add(mb.Revolute(name="joint_c", n=[0, 0, 1], phi_guess=-beta))
-    slider = m.add(mb.Prismatic(name="slider", n=[1, 0, 0], s_guess=x0, use_flange=piston_drive is not None))
+    # a piston pushed at a prescribed speed is the mechanism's coordinate: its start position is fixed
+    slider = m.add(mb.Prismatic(name="slider", n=[1, 0, 0], use_flange=piston_drive is not None,
+                                **({"s_start": x0} if isinstance(piston_drive, tr.Speed) else {"s_guess": x0})))
     crank = m.add(mb.FixedTranslation(name="crank", r=[r, 0, 0]))
     rod = m.add(mb.FixedTranslation(name="rod", r=[l, 0, 0]))
     for part, L, mass in ((crank, r, masses[0]), (rod, l, masses[1])):

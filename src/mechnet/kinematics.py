@@ -8,7 +8,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from .core.errors import SceneError, UnknownNameError
+from .core.declarations import finite_number
+from .core.errors import InputError, SceneError, UnknownNameError
 
 
 def kinematics(cm, q: dict | None = None, qd: dict | None = None, params: dict | None = None) -> dict:
@@ -31,10 +32,10 @@ def kinematics(cm, q: dict | None = None, qd: dict | None = None, params: dict |
     by_symbol = {v.symbol.element_hash(): v.name for v in flat.variables}
     q_syms = [qs for qs, _ in joints.values()] + [qds for _, qds in joints.values()]
     q_vals = []
-    for path, (qs, qds) in joints.items():
-        q_vals.append(float((q or {}).get(path, starts.get(by_symbol.get(qs.element_hash()), 0.0) or 0.0)))
-    for path, (qs, qds) in joints.items():
-        q_vals.append(float((qd or {}).get(path, starts.get(by_symbol.get(qds.element_hash()), 0.0) or 0.0)))
+    for given, what, k in ((q or {}, "q", 0), (qd or {}, "qd", 1)):
+        for path, syms in joints.items():
+            value = given[path] if path in given else starts.get(by_symbol.get(syms[k].element_hash()), 0.0) or 0.0
+            q_vals.append(finite_number(value, f"kinematics({what}=...): {what}[{path!r}]", InputError))
     labels = sorted(tree.frames)
     outs = []
     for label in labels:
@@ -42,7 +43,12 @@ def kinematics(cm, q: dict | None = None, qd: dict | None = None, params: dict |
         outs.extend([k.r, ca.reshape(k.R, 9, 1), k.v, k.w])
     stacked = flat.expand([ca.vertcat(*outs)])[0]
     p_syms = [p.symbol for p in flat.parameters]
-    p_vals = [float((params or {}).get(p.name, p.value)) for p in flat.parameters]
+    unknown = sorted(set(params or {}) - {p.name for p in flat.parameters})
+    if unknown:
+        raise UnknownNameError(f"kinematics(params=...): {', '.join(unknown)} is not a tunable parameter; "
+                               f"tunable parameters: {', '.join(p.name for p in flat.parameters) or 'none'}")
+    p_vals = [finite_number((params or {}).get(p.name, p.value), f"kinematics(params=...): params[{p.name!r}]",
+                            InputError) for p in flat.parameters]
     fn = ca.Function("kinematics", [ca.vertcat(*q_syms) if q_syms else ca.SX(0, 1),
                                     ca.vertcat(*p_syms) if p_syms else ca.SX(0, 1)], [stacked])
     values = np.asarray(fn(q_vals, p_vals), dtype=float).ravel()

@@ -20,7 +20,8 @@ from typing import Optional
 import casadi as ca
 import numpy as np
 
-from .core.errors import InitializationError, MechnetError, UnknownNameError
+from .core.declarations import finite_number
+from .core.errors import InitializationError, InputError, MechnetError, UnknownNameError
 from .simulate.initialize import solve_algebraic
 from .simulate.integrator import _resolve_params
 from .simulate.result import Result, unknown_name
@@ -97,7 +98,8 @@ def _state_values(dae, given: dict, what: str) -> np.ndarray:
                 raise UnknownNameError(f"{what}: {name!r} is not a state of this model (the states are "
                                        f"{', '.join(dae.x_names) or 'none'}); give the operating point in states")
             raise unknown_name(name, dae.x_names, f"{what}: state")
-    return np.array([float(given.get(n, dae.starts.get(n, dae.guesses.get(n, 0.0)))) for n in dae.x_names])
+    return np.array([finite_number(given[n], f"{what}: state {n!r}", InputError) if n in given else
+                     float(dae.starts.get(n, dae.guesses.get(n, 0.0))) for n in dae.x_names])
 
 
 def _input_values(dae, given: dict, what: str) -> np.ndarray:
@@ -105,15 +107,13 @@ def _input_values(dae, given: dict, what: str) -> np.ndarray:
     for name, value in given.items():
         if name not in dae.u_names:
             raise unknown_name(name, dae.u_names, f"{what}: input")
-        value = float(value)
-        if not np.isfinite(value):
-            raise MechnetError(f"{what}: input {name!r} = {value} is not finite")
-        u[dae.u_names.index(name)] = value
+        u[dae.u_names.index(name)] = finite_number(value, f"{what}: input {name!r}", InputError)
     return u
 
 
-def _z_guess(dae, given: dict) -> np.ndarray:
-    return np.array([float(given.get(n, dae.guesses.get(n, 0.0))) for n in dae.z_names])
+def _z_guess(dae, given: dict, what: str) -> np.ndarray:
+    return np.array([finite_number(given[n], f"{what}: algebraic {n!r}", InputError) if n in given else
+                     float(dae.guesses.get(n, 0.0)) for n in dae.z_names])
 
 
 def _dense(m) -> np.ndarray:
@@ -169,7 +169,7 @@ def linearize(cm, x_op=None, u_op=None, *, t: Optional[float] = None, params: Op
     else:
         raise MechnetError(f"linearize: x_op must be a dict of state values, a TrimPoint or a Result, "
                            f"not {type(x_op).__name__}")
-    t = float(t_given if t is None else t)
+    t = finite_number(t_given if t is None else t, "linearize(t=...)", InputError)
     u_given.update(u_op or {})
     p_given.update(params or {})
 
@@ -182,7 +182,7 @@ def linearize(cm, x_op=None, u_op=None, *, t: Optional[float] = None, params: Op
             if name not in dae.z_names:
                 raise unknown_name(name, dae.z_names, "linearize: algebraic variable")
         try:
-            z = solve_algebraic(dae, t, x, _z_guess(dae, z_given), u, p, d)
+            z = solve_algebraic(dae, t, x, _z_guess(dae, z_given, "linearize(x_op=...)"), u, p, d)
         except InitializationError as exc:
             point = ", ".join(f"{n} = {v:g}" for n, v in zip(dae.x_names, x))
             raise InitializationError(f"linearize: the algebraic equations have no solution at the operating "
@@ -253,6 +253,7 @@ def trim(cm, *, inputs: Optional[dict] = None, fixed: Optional[dict] = None, fre
     """
     dae = cm.dae
     inputs, fixed, guess = dict(inputs or {}), dict(fixed or {}), dict(guess or {})
+    t = finite_number(t, "trim(t=...)", InputError)
     free_inputs = tuple(free_inputs)
     nx_, nz = dae.x.numel(), dae.z.numel()
     for name in free_inputs:
@@ -263,6 +264,7 @@ def trim(cm, *, inputs: Optional[dict] = None, fixed: Optional[dict] = None, fre
     for name in fixed:
         if name not in dae.observed_names:
             raise unknown_name(name, dae.observed_names, "trim(fixed=...): variable")
+        fixed[name] = finite_number(fixed[name], f"trim(fixed=...): {name!r}", InputError)
     if len(free_inputs) != len(fixed):
         raise InitializationError(
             f"trim: {len(fixed)} fixed value(s) ({', '.join(fixed) or 'none'}) but {len(free_inputs)} free "
@@ -286,7 +288,7 @@ def trim(cm, *, inputs: Optional[dict] = None, fixed: Optional[dict] = None, fre
     y = dae.observed(*args)
     row = {n: k for k, n in enumerate(dae.observed_names)}
     res = ca.vertcat(dae.ode(*args), dae.alg(*args) if nz else ca.SX(0, 1),
-                     *[y[row[n]] - float(v) for n, v in fixed.items()])
+                     *[y[row[n]] - v for n, v in fixed.items()])
     w = ca.vertcat(dae.x, dae.z, uf)
     F = ca.Function("trim_residual", [w], [res])
     J = ca.Function("trim_jacobian", [w], [ca.jacobian(res, w)])
@@ -307,8 +309,9 @@ def trim(cm, *, inputs: Optional[dict] = None, fixed: Optional[dict] = None, fre
     for n, v in fixed.items():            # a fixed state starts at its value
         if n in dae.x_names and n not in guess:
             x0[dae.x_names.index(n)] = float(v)
-    z0 = _z_guess(dae, guess)
-    f0 = np.array([float(guess.get(n, u0[j])) for n, j in zip(free_inputs, free_idx)])
+    z0 = _z_guess(dae, guess, "trim(guess=...)")
+    f0 = np.array([finite_number(guess[n], f"trim(guess=...): input {n!r}", InputError) if n in guess else u0[j]
+                   for n, j in zip(free_inputs, free_idx)])
     w0 = np.concatenate([x0, z0, f0])
 
     if w0.size == 0:

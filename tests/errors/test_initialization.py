@@ -1,6 +1,7 @@
 """Start values that cannot all hold: InitializationError naming the start values involved."""
 import re
 
+import numpy as np
 import pytest
 
 import mechnet as mn
@@ -138,3 +139,62 @@ def test_start_value_whose_coefficient_a_parameter_makes_zero(scaled):
     # and the cached structure still serves k ≠ 0: y = 1 → x = 1/k (static, rtol 1e-12)
     res = scaled.simulate(0.1, n_out=3, start={"s.y": 1.0, "s.v": 0.0}, params={"s.k": 4.0})
     assert res["s.x"][0] == pytest.approx(0.25, rel=1e-12, abs=0)
+
+
+# ---- too few fixed values, whatever the matching of the initial system picks ----------------------
+
+class _LoopUndeclared(Loop):
+    """Loop whose x declares no default start."""
+
+    x = mn.State()
+
+
+def _loop_model(declared=True, **kw):
+    """Loop (z + z³ = x, der(x) = −z; x declares start=1.0, a guess, never enforced) or _LoopUndeclared."""
+    m = mn.Model("loop")
+    m.add((Loop if declared else _LoopUndeclared)(name="l", **kw))
+    return m.compile()
+
+
+@pytest.mark.parametrize("declared, kw", [(True, {}), (False, {}), (True, {"x_guess": 0.8})],
+                         ids=["declared-start", "no-declared-start", "guess"])
+def test_a_state_fixed_by_nothing_is_named_even_when_an_algebraic_equation_could_take_it(declared, kw):
+    """Regression (issue 15, item 4): the algebraic row z + z³ = x could be matched to x, leaving z
+    unmatched and x reported as neither fixed nor free; x then started anywhere (0.532, 0, 0.420).
+    Declared starts and guesses only seed Newton, so x is free and must be named."""
+    cm = _loop_model(declared, **kw)
+    with pytest.raises(mn.InitializationError, match=r"too few fixed start values: nothing fixes the states l\.x\b"):
+        cm.simulate(0.1, n_out=3)
+
+
+def _real_root(x):
+    """The one real root of z + z³ = x (Cardano; z + z³ is increasing)."""
+    s = np.sqrt(x ** 2 / 4 + 1 / 27)
+    return np.cbrt(x / 2 + s) + np.cbrt(x / 2 - s)
+
+
+def test_the_loop_with_one_fixed_value_starts_there_and_keeps_its_invariant():
+    """Guard for the test above. x_start = 0.8: z(0) is the real root of z + z³ = 0.8. Along the motion
+    dz/dt·(1 + 3z²) = −z, so ln z + 3z²/2 + t is constant (z > 0 throughout): checked at every output
+    point against its start value, atol 1e-5 (run rtol 1e-8, atol 1e-10; horizon 2 s; z from 0.59 to ~0.1)."""
+    cm = _loop_model(x_start=0.8)
+    res = cm.simulate(2.0, n_out=41, rtol=1e-8, atol=1e-10)
+    assert res["l.x"][0] == 0.8 and res["l.z"][0] == pytest.approx(_real_root(0.8), rel=1e-10, abs=0)
+    z = res["l.z"]
+    invariant = np.log(z) + 1.5 * z ** 2 + res.t
+    assert np.max(np.abs(invariant - invariant[0])) < 1e-5
+
+
+def test_a_fixed_algebraic_value_fixes_the_state_through_the_equation():
+    """z is fixed instead of x: the initial system is square all the same; x = z + z³ exactly (rtol 1e-12)."""
+    cm = _loop_model()
+    res = cm.simulate(0.1, n_out=3, start={"l.z": 0.5})
+    assert res["l.z"][0] == pytest.approx(0.5, rel=1e-12, abs=0)
+    assert res["l.x"][0] == pytest.approx(0.5 + 0.125, rel=1e-12, abs=0)
+
+
+def test_the_loop_at_steady_state_starts_at_its_equilibrium():
+    """der(x) = −z = 0 gives z = 0 and then x = 0: steady state fixes the one degree of freedom (atol 1e-12)."""
+    cm = _loop_model()
+    res = cm.simulate(0.1, n_out=3, steady_state=True, guess={"l.x": 0.3, "l.z": 0.2})
+    assert abs(res["l.x"][0]) < 1e-12 and abs(res["l.z"][0]) < 1e-12

@@ -246,3 +246,23 @@ def test_joint_moving_no_mass_on_a_tilted_axis(n, r):
     assert message is not None, "a joint that moves no mass must not simulate silently"
     assert "rev" in message
     assert "moves no mass" in message        # caught at compile by the numerical pivot check
+
+
+def test_loop_that_moves_no_mass_is_refused_naming_its_joints():
+    # A slider-crank whose only mass is a particle on the crank axis: the loop's one freedom moves no
+    # mass, so the check that lets a loop give a joint its mass (issue 15, item 8) must still refuse it.
+    m = mn.Model("m")
+    world = m.add(mb.World(name="world"))
+    crank_j = m.add(mb.Revolute(name="crank_joint", n=[0, 0, 1], phi_start=0.3))
+    rod_j = m.add(mb.Revolute(name="rod_joint", n=[0, 0, 1]))
+    wrist = m.add(mb.Revolute(name="wrist_pin", n=[0, 0, 1]))
+    slider = m.add(mb.Prismatic(name="slider", n=[1, 0, 0], s_guess=0.25))
+    crank = m.add(mb.FixedTranslation(name="crank", r=[0.05, 0, 0]))
+    conrod = m.add(mb.FixedTranslation(name="conrod", r=[0.2, 0, 0]))
+    hub = m.add(mb.Particle(name="hub", m=1.0))
+    _connect(m, [(world.frame_b, crank_j.frame_a), (crank_j.frame_b, hub.frame_a),
+                 (crank_j.frame_b, crank.frame_a), (crank.frame_b, rod_j.frame_a),
+                 (rod_j.frame_b, conrod.frame_a), (conrod.frame_b, wrist.frame_a),
+                 (world.frame_b, slider.frame_a), (slider.frame_b, wrist.frame_b)])
+    with pytest.raises(mn.StructureError, match=culprit("crank_joint", mb.Revolute, "no mass", "loop")):
+        m.compile()

@@ -223,6 +223,7 @@ class _Tree:
         self._body_cache, self._velocity_cache = {}, {}
         self._pivots = []                     # (joint, D, scale): checked numerically once the tree is built
         self._pivot_rows = []                 # (equation index, link's own inertia along the joint, its M)
+        self._unmoved = []                    # joints on a loop that move no mass themselves: check_loop_mass
 
     def let(self, expr, name):
         """Hide a state-only expression behind named symbols, entry by entry (numbers stay numbers, so
@@ -417,7 +418,9 @@ class _Tree:
         for link in moving:
             child_links[self.link_of[self.joint[link][3]]].append(link)
         IA, Ia, U, D = {}, {}, {}, {}
-        massless, reaches_cut = set(), {}
+        massless, inert, reaches_cut = set(), set(), {}
+        on_loop = {j.path for e in self.cuts
+                   for j in loop_edges(self.parent, self.node_of[e.frame_a], self.node_of[e.frame_b])}
         for link in reversed(moving):                      # inward: articulated inertia and bias
             e, S, _, _ = self.joint[link]
             IA_k, p_k = M[link], bias[link]
@@ -426,18 +429,31 @@ class _Tree:
             for j in child_links[link]:
                 dj, _ = self.offset(j)
                 if j in massless:                          # passes its loads on: the wrench through its joint
-                    p_k = p_k + _transport_wrench(P[j], dj)
+                    through = P[j]
+                    if j in inert:                         # and its inertia, rigidly (its joint moves none)
+                        IA_k = IA_k + _transport_inertia(Ia[j], dj)
+                        through = through + ca.mtimes(Ia[j], self.velocity_terms(j))
+                    p_k = p_k + _transport_wrench(through, dj)
                     continue
                 ej, Sj, _, _ = self.joint[j]
                 u_j = ej.axis_load() - ca.dot(Sj, P[j])
                 IA_k = IA_k + _transport_inertia(Ia[j], dj)
                 p_k = p_k + _transport_wrench(ca.mtimes(Ia[j], self.velocity_terms(j)) + P[j] + U[j] * u_j / D[j], dj)
-            if reaches_cut[link] and all(ca.SX(x).is_zero() for x in ca.vertsplit(ca.vec(IA_k))):
-                # a massless link inside a loop: its joint equation S·P = axis load constrains the loop's
-                # wrench, and its acceleration comes from the differentiated closure
+            empty = all(ca.SX(x).is_zero() for x in ca.vertsplit(ca.vec(IA_k)))
+            unmoved = not empty and link in on_loop and not getattr(e, "use_flange", False) and \
+                ca.SX(ca.dot(S, ca.mtimes(IA_k, S))).is_zero()
+            if reaches_cut[link] and (empty or unmoved):
+                # a link inside a loop whose joint moves no mass (none beyond it, or none along its axis):
+                # its joint equation S·P = axis load constrains the loop's wrench, its acceleration comes
+                # from the differentiated closure, and whatever mass it has rides rigidly on the parent's
+                # side (IA·S = 0). Whether the loop gives that freedom mass is check_loop_mass's question
                 massless.add(link)
-                IA[link] = IA_k
-                Ia[link], U[link], D[link] = ca.SX.zeros(6, 6), ca.SX.zeros(6), ca.SX(0)
+                IA[link] = IA_k = IA_k if empty else self.let(IA_k, f"{e.path}.articulated_inertia")
+                Ia[link], U[link], D[link] = IA_k if unmoved else ca.SX.zeros(6, 6), ca.SX.zeros(6), ca.SX(0)
+                if unmoved:
+                    inert.add(link)
+                if not getattr(e, "use_flange", False):
+                    self._unmoved.append(e)
                 P[link] = _defined(tree, e, [f"{e.path}.bias_wrench[{i}]" for i in range(6)], ["N*m"] * 3 + ["N"] * 3,
                                    p_k, "loads through a massless link of a loop")
                 continue
@@ -633,11 +649,75 @@ class _Tree:
         tunables = [(sym, value) for c in self.components for sym, value in c.tunable.values()]
         bases = reduce_redundancy(self.cuts, [r for r, _, _, _ in parts], coordinates,
                                   (self.let_symbols, self.let_values), tunables, lambda k: loops[k].describe(), axes)
+        self.check_loop_mass([ca.mtimes(ca.DM(K.T), r) for (r, _, _, _), (K, _) in zip(parts, bases) if K.shape[1]],
+                             coordinates)
         for k, (e, (res, wrench, balance, drive), (K, N)) in enumerate(zip(self.cuts, parts, bases)):
             loop = replace(loops[k], kept=K.shape[1],
                            dropped=tuple(direction(N[:, j], *axes[k]) for j in range(N.shape[1])))
             tree.loops.append(loop)
             tree.equations.extend(closure_equations(e, loop, res, wrench, balance, drive, K, N, axes[k]))
+
+    def check_loop_mass(self, kept, coordinates):
+        """A joint on a loop that moves no mass itself (dynamics) is well posed when the mechanism gives its
+        freedom mass: the kinetic energy's Hessian M in the speeds, restricted to the motions the kept
+        closures allow (null space Z of their Jacobian G), must be nonsingular. Judged at two random
+        configurations, assembled (Gauss-Newton on the closures) where they can be; flange-driven
+        coordinates count as driven (unit mass), cut coordinates carry none."""
+        if not self._unmoved:
+            return
+        speeds = [qd for _, _, qd in self.coordinates]
+        kinetic = ca.SX(0)
+        for n, bodies in self.bodies_at.items():
+            k = self.kin[n]
+            for body in bodies:
+                m, r_cm, I = body.mass_properties()
+                c = ca.mtimes(k.R, r_cm)
+                vc = k.v + _cross(k.w, c)
+                w_b = ca.mtimes(k.R.T, k.w)                  # ω in body axes
+                kinetic += 0.5 * m * ca.dot(vc, vc) + 0.5 * ca.dot(w_b, ca.mtimes(I, w_b))
+        _, (kinetic,) = ca.substitute_inplace(self.let_symbols, self.let_values, [kinetic], False)
+        qd = ca.vertcat(*speeds)
+        M = ca.SX.zeros(len(coordinates), len(coordinates))
+        M[:len(speeds), :len(speeds)] = ca.hessian(kinetic, qd)[0]
+        joints = [self.joint[path][0] for path, _, _ in self.coordinates] + [e for e in self.cuts if e.dof]
+        driven = [i for i, e in enumerate(joints) if getattr(e, "use_flange", False)]
+        q = ca.vertcat(*coordinates)
+        G = ca.jacobian(ca.vertcat(*kept), q) if kept else ca.SX(0, len(coordinates))
+        tunables = [(sym, value) for c in self.components for sym, value in c.tunable.values()]
+        p = ca.vertcat(*[sym for sym, _ in tunables]) if tunables else ca.SX(0, 1)
+        pv = [v for _, v in tunables]
+        fn = ca.Function("loop_mass", [q, qd, p], [M, G, ca.vertcat(*kept) if kept else ca.SX(0, 1)])
+        rng = np.random.default_rng(2468)
+        weak, judged = set(), 0
+        for _ in range(2):
+            qv = rng.uniform(-np.pi, np.pi, q.numel())
+            for _ in range(30):                        # assemble: min-norm Newton steps onto the closures
+                Mv, Gv, rv = (np.asarray(x) for x in fn(qv, np.zeros(qd.numel()), pv))
+                if not rv.size or not np.all(np.isfinite(rv)) or np.max(np.abs(rv)) <= 1e-12:
+                    break
+                qv = qv - np.linalg.lstsq(Gv, rv.ravel(), rcond=None)[0]
+            if not (np.all(np.isfinite(Mv)) and np.all(np.isfinite(Gv))):
+                continue
+            judged += 1
+            scale = max(np.trace(Mv), 1e-300)
+            Mv[driven, driven] += scale                # a flange drives these: count them as heavy
+            _, sv, Vt = np.linalg.svd(Gv) if Gv.size else (None, np.zeros(0), np.eye(q.numel()))
+            Z = Vt[int(np.sum(sv > 1e-9 * max(sv.max(initial=0.0), 1e-300))):].T
+            lam, vec = np.linalg.eigh(Z.T @ Mv @ Z)
+            bad = [Z @ vec[:, i] for i in range(len(lam)) if lam[i] <= 1e-12 * scale]
+            if not bad:
+                return
+            weak |= {e.path for v in bad for i, e in enumerate(joints) if abs(v[i]) > 1e-6 * np.max(np.abs(v))}
+        if not judged:
+            return
+        named = [e for e in self._unmoved if e.path in weak] or self._unmoved
+        one = len(named) == 1
+        raise StructureError(
+            ", ".join(f"joint {e.path} ({type(e).__name__})" for e in named)
+            + (" moves" if one else " move") + " no mass: neither what lies beyond in the tree nor the kinematic "
+            f"loop gives {'its' if one else 'their'} motion mass (or inertia about the axis), so the acceleration "
+            "is undetermined; attach a Body that the loop moves, or drive a joint through its flange "
+            "(use_flange=True)")
 
     def scene_sensors(self, tree):
         """SystemEnergy and SystemMomentum: sums over the bodies (and the force elements' stored energy)."""

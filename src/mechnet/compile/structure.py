@@ -13,7 +13,6 @@ from dataclasses import dataclass
 
 import casadi as ca
 import networkx as nx
-from networkx.algorithms import bipartite
 
 from ..core.errors import HigherIndexError, UnbalancedModelError
 from .artifacts import FlatSystem, StructureReport
@@ -36,14 +35,18 @@ def incidence_of(flat: FlatSystem, unknowns: list[int]) -> list[list[int]]:
 
 
 def maximum_matching(incidence: list[list[int]], n_unknowns: int) -> dict[int, int]:
-    """Equation index -> unknown position, a maximum matching (Hopcroft–Karp)."""
-    g = nx.Graph()
-    eqs = [("e", e) for e in range(len(incidence))]
-    g.add_nodes_from(eqs, bipartite=0)
-    g.add_nodes_from((("v", k) for k in range(n_unknowns)), bipartite=1)
-    g.add_edges_from((("e", e), ("v", k)) for e, row in enumerate(incidence) for k in row)
-    m = bipartite.hopcroft_karp_matching(g, top_nodes=eqs)
-    return {node[1]: m[node][1] for node in eqs if node in m}
+    """Equation index -> unknown position, a maximum matching (SciPy's Hopcroft–Karp, in C: a
+    recursive matching overflows Python's stack on a chain of a few hundred bodies)."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import maximum_bipartite_matching
+
+    if not incidence or n_unknowns == 0:
+        return {}
+    rows = [e for e, row in enumerate(incidence) for _ in row]
+    cols = [k for row in incidence for k in row]
+    graph = csr_matrix(([1.0] * len(rows), (rows, cols)), shape=(len(incidence), n_unknowns))
+    var_of_eq = maximum_bipartite_matching(graph, perm_type="column")
+    return {e: int(k) for e, k in enumerate(var_of_eq) if k >= 0}
 
 
 def _alternating_reach(incidence, matching, unmatched_eqs, unmatched_vars, n_unknowns):

@@ -48,6 +48,21 @@ def any_finite(value) -> Optional[str]:
     return None
 
 
+def direction(value) -> Optional[str]:
+    """An axis: any finite vector but zero (its length does not matter; `unit_vector` normalises it)."""
+    return None if np.max(np.abs(value)) > 0 else "must not be the zero vector (it gives a direction)"
+
+
+def unit_vector(value) -> np.ndarray:
+    """value / |value| for a finite non-zero vector, without overflow or underflow: |value| squares the
+    entries, so [0, 0, 1e200] or [1e-200, 0, 0] are first scaled by their largest entry."""
+    v = np.asarray(value, dtype=float).ravel()
+    biggest = np.max(np.abs(v))
+    if not 1e-150 < biggest < 1e150:
+        v = v / biggest
+    return v / np.linalg.norm(v)
+
+
 @dataclass(frozen=True)
 class Tunable:
     """Marks a parameter value that stays a symbol (for sweeps, OCP, export) instead of being folded."""

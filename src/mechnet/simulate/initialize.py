@@ -17,6 +17,7 @@ import casadi as ca
 import networkx as nx
 import numpy as np
 
+from ..caches import built
 from ..core.errors import InitializationError
 from ..numeric import NumpyCall, dense
 
@@ -199,14 +200,9 @@ def _initial_system(dae, names: tuple, kept: tuple, conditions: list):
         g.add_nodes_from(("w", j) for j in range(nx_ + nz))
         g.add_edges_from((("r", k), ("w", j)) for k, cols in enumerate(rows_pattern) for j in cols)
         _too_many(conditions, unmatched, g, dae)
-    matched_w = {j for j, k in enumerate(row_of_w) if k >= 0}
-    free = [j for j in range(nx_) if j not in matched_w]
-    names_w = list(dae.x_names) + list(dae.z_names)
-    if free:
-        raise InitializationError(
-            f"too few fixed start values: nothing fixes the states {', '.join(names_w[j] for j in free)}; "
-            f"give them start values (component arguments such as phi_start=, or simulate(start={{...}})), "
-            f"or use simulate(steady_state=True)")
+    missing = int(np.sum(row_of_w < 0))
+    if missing:
+        _too_few(missing, _underdetermined(rows_pattern, row_of_w), nx_, list(dae.x_names) + list(dae.z_names))
     fixed = ca.SX.sym("fixed", len(rows))
     res_expr = ca.vertcat(ca.vertcat(*rows) - fixed, alg) if rows_expr else ca.SX(0, 1)
     cache[key] = _residual_pair("init_residual", w, [dae.t, dae.u, dae.p, fixed], res_expr)
@@ -232,6 +228,39 @@ def _match(rows_pattern, n_cols) -> np.ndarray:
     c = [j for cols in rows_pattern for j in cols]
     graph = csr_matrix((np.ones(len(r)), (r, c)), shape=(len(rows_pattern), n_cols))
     return maximum_bipartite_matching(graph, perm_type="row")
+
+
+def _underdetermined(rows_pattern, row_of_w) -> list[int]:
+    """The under-determined part (Dulmage–Mendelsohn) of the initial system: every unknown that an
+    alternating path reaches from an unmatched one, i.e. every unknown that some maximum matching leaves
+    unmatched. It does not depend on the matching, so an algebraic equation that happened to be matched
+    to a state cannot hide that state's missing start value."""
+    users = [[] for _ in row_of_w]
+    for k, cols in enumerate(rows_pattern):
+        for j in cols:
+            users[j].append(k)
+    col_of_row = {int(k): j for j, k in enumerate(row_of_w) if k >= 0}
+    reached = {j for j, k in enumerate(row_of_w) if k < 0}
+    stack = list(reached)
+    while stack:
+        for k in users[stack.pop()]:
+            j = col_of_row[k]               # the row is matched, else the matching was not maximum
+            if j not in reached:
+                reached.add(j)
+                stack.append(j)
+    return sorted(reached)
+
+
+def _too_few(missing: int, under: list[int], n_states: int, names_w: list):
+    """Name the states among which `missing` start values are needed (algebraic variables only when
+    no state is in the under-determined part, which a structurally sound DAE never gives)."""
+    states = [j for j in under if j < n_states] or under
+    listed = ", ".join(names_w[j] for j in states)
+    what = (f"nothing fixes the states {listed}" if len(states) == missing else
+            f"{missing} more fixed value{'s are' if missing > 1 else ' is'} needed among the states {listed}")
+    raise InitializationError(
+        f"too few fixed start values: {what}; give them start values (component arguments such as "
+        f"phi_start=, or simulate(start={{...}})), or use simulate(steady_state=True) (guesses do not fix)")
 
 
 def _pattern(exprs, w) -> list[list[int]]:
@@ -275,10 +304,8 @@ def solve_algebraic(dae, t: float, x: np.ndarray, z_guess: np.ndarray, u: np.nda
     """Algebraic variables consistent with the states at time t (after an event, or without states)."""
     if dae.z.numel() == 0:
         return np.zeros(0)
-    if "_algebraic_newton" not in dae.info:             # built once per model: restarts are frequent
-        alg = dae.alg(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d)
-        dae.info["_algebraic_newton"] = _residual_pair("alg_at_t", dae.z, [dae.t, dae.x, dae.u, dae.p, dae.d], alg)
-    residual, jacobian = dae.info["_algebraic_newton"]
+    residual, jacobian = built(dae.info, "_algebraic_newton", lambda: _residual_pair(   # once: restarts are frequent
+        "alg_at_t", dae.z, [dae.t, dae.x, dae.u, dae.p, dae.d], dae.alg(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d)))
     z, r = _newton(residual, jacobian, np.asarray(z_guess, dtype=float).copy(), (t, x, u, p, d))
     if not np.all(np.isfinite(r)) or np.max(np.abs(r)) > 1e-8 * (1.0 + np.max(np.abs(z))):
         raise InitializationError(f"re-initialisation at t = {t:g} s failed: algebraic residual "

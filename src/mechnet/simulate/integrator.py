@@ -33,7 +33,7 @@ from ..core.declarations import finite_number
 from ..numeric import mapped_in
 from .events import Event, breakpoints, chunk_bounds, output_grid
 from .change_points import ChangePoints
-from .branch import Verdict, selections, state_names
+from .branch import TURN_LIMIT, Verdict, selections, state_names, turns_of, whole_turns
 from .reselection import Reselection, SelectionMonitor
 from .state_events import StateEvents
 from .initialize import initialize, solve_algebraic
@@ -393,33 +393,27 @@ class _Run(StateEvents, Reselection, ChangePoints):
             return
         cuts = sorted({int(np.searchsorted(grid, t)) for t in event_at}
                       | set(chunk_bounds(grid.size, PROGRESS_CHUNKS if grid.size >= PROGRESS_MIN_POINTS else 1)))
+        barred = any(0 < c < grid.size - 1 for c in cuts)     # the cuts for winding alone show no bar
+        cuts = sorted(set(cuts) | set(chunk_bounds(grid.size, self._winding_chunks(grid))))
         bounds = [0] + [c for c in cuts if 0 < c < grid.size - 1] + [grid.size - 1]
         bar, started = None, _time.perf_counter()
         t_cur, a = grid[0], 0
         for b in bounds[1:]:
-            while True:                       # a state event restarts the rest of this segment
-                points = np.concatenate([[t_cur], grid[a + 1: b + 1]])
-                n_before = len(self.T)
-                if not self._segment(points):
-                    t_next = self._pass_change_point(grid, limit=grid[b])
-                    if t_next is None:
-                        if bar is not None:
-                            bar.close()
-                        return
-                    t_cur = t_next
-                    a = int(np.searchsorted(grid, t_cur, side="right")) - 1
-                    continue
-                event = self._state_event(points, n_before)
-                if event is None:
+            while True:                       # (state events run monitored: none here) a change point
+                points = np.concatenate([[t_cur], grid[a + 1: b + 1]])      # passed restarts the rest
+                if self._segment(points):
                     break
-                t_cur = event
-                a = int(np.searchsorted(grid, t_cur, side="right")) - 1
-                if self.failure is not None:
+                t_next = self._pass_change_point(grid, limit=grid[b])
+                if t_next is None:
+                    if bar is not None:
+                        bar.close()
                     return
+                t_cur = t_next
+                a = int(np.searchsorted(grid, t_cur, side="right")) - 1
             t_cur, a = grid[b], b
             if grid[b] in event_at:
                 self._restart_at(grid[b], event_at[grid[b]])
-            if progress is not False and bar is None and len(bounds) > 2:
+            if progress is not False and bar is None and barred:
                 elapsed = _time.perf_counter() - started
                 expected = elapsed * (grid[-1] - grid[0]) / max(grid[b] - grid[0], 1e-300)
                 if progress or expected > PROGRESS_AFTER_SECONDS:
@@ -459,6 +453,23 @@ class _Run(StateEvents, Reselection, ChangePoints):
     def _u_at(self, t):
         return self.plan.at(t)[:, 0]
 
+    def _turns(self, t):
+        """The whole turns of the coordinates the equations see only through sine and cosine
+        (`branch.whole_turns`): left out of each integrator call, so an angle of thousands of turns
+        keeps the precision of one near zero (added back to the outputs)."""
+        px, pz = whole_turns(self.dae, self.x, self.z, self._u_at(t), self.p, self.d)
+        return turns_of(self.x, px), turns_of(self.z, pz)
+
+    def _winding_chunks(self, grid) -> int:
+        """Calls enough that no periodic state winds more than TURN_LIMIT in one (at its starting rate):
+        within a call the angle grows again, and with it the round-off in everything computed from it."""
+        px, _ = whole_turns(self.dae, self.x, self.z, self._u_at(grid[0]), self.p, self.d)
+        if not px.any():
+            return 1
+        rate = np.abs(np.asarray(self.dae.ode(grid[0], self.x, self.z, self._u_at(grid[0]), self.p, self.d))).ravel()
+        wind = float(np.max(np.where(px > 0, rate, 0.0))) * (grid[-1] - grid[0])
+        return int(min(np.ceil(wind / TURN_LIMIT), grid.size // 2)) if np.isfinite(wind) else 1
+
     def _inputs_at(self, ts):
         """The inputs at each of the times ts, one column per time."""
         return self.plan.at(ts)
@@ -471,14 +482,15 @@ class _Run(StateEvents, Reselection, ChangePoints):
         """Integrate over `points` in one call; on success append the outputs and move the state."""
         t0, h = points[0], points[-1] - points[0]
         F = self.integrators.get_real(tuple(float(v) for v in points))
-        xs = self.x / self.xn
-        zs = self.z / self.zn if self.zn.size else np.zeros(0)
+        ox, oz = self._turns(t0)
+        xs = (self.x - ox) / self.xn
+        zs = (self.z - oz) / self.zn if self.zn.size else np.zeros(0)
         try:
             out = _call(F, xs, zs, self.pvec(t0, h))
         except RuntimeError as exc:
             return False, str(exc)
-        xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn
-        zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn) if self.zn.size \
+        xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn + ox
+        zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn + oz) if self.zn.size \
             else np.zeros((xf.shape[0], 0))
         self.T.extend(points[1:])
         self.X.extend(xf)
@@ -671,7 +683,9 @@ class _Run(StateEvents, Reselection, ChangePoints):
         self._failed_at = None
         try:
             with _solver_messages_muted(budget is not None):
-                out = _call(F, self.x / self.xn, self.z / self.zn if self.zn.size else np.zeros(0), self.pvec(t0, h))
+                ox, oz = self._turns(t0)
+                out = _call(F, (self.x - ox) / self.xn, (self.z - oz) / self.zn if self.zn.size else np.zeros(0),
+                            self.pvec(t0, h))
         except RuntimeError as exc:
             # after a failure CasADi's `tcur` is the last output time the solver reached (normalised; 0
             # when it failed before the first): the failure lies after it
@@ -685,8 +699,8 @@ class _Run(StateEvents, Reselection, ChangePoints):
         self.stats["hlast"] = float(s.get("hlast", float("nan"))) * h
         # the mean step of this piece (the last step alone can be tiny: a restart, an output time)
         self._mean_step = h / max(int(s.get("nsteps", 0)), 1)
-        xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn
-        zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn) if self.zn.size \
+        xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn + ox
+        zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn + oz) if self.zn.size \
             else np.zeros((xf.shape[0], 0))
         return True, "", np.vstack([self.x, xf]), np.vstack([self.z.reshape(1, -1), zf])
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import casadi as ca
 
 from ...core.component import Component
-from ...core.declarations import Param, Port, Var, nonnegative, positive
+from ...core.declarations import Param, Port, Var, finite_number, nonnegative, positive
 from ...core.equation import Eq, der, time
 from ...core.errors import ParameterError
 from .interfaces import Frame, PartialTwoFrames
@@ -114,10 +114,7 @@ def _vector_source(label: str, value):
             exprs.append(v.expr(time))
             signals[i] = v
         else:
-            try:
-                exprs.append(ca.SX(float(v)))
-            except (TypeError, ValueError):
-                raise ParameterError(f"{label}[{i}] = {v!r} is not a number or a signal") from None
+            exprs.append(ca.SX(finite_number(v, f"{label}[{i}] (a number or a signal)")))
     return ca.vertcat(*exprs), signals
 
 

@@ -15,23 +15,22 @@ from __future__ import annotations
 
 import casadi as ca
 
-from ...core.declarations import Flag, Param, Port, State, Var
+from ...core.declarations import Flag, Param, Port, State, Var, direction, unit_vector
 from ...core.equation import Eq, der
 from ..rotational.interfaces import Flange as RotationalFlange
 from ..translational.interfaces import Flange as TranslationalFlange
 from .frames import axis_rotation
 from .interfaces import PartialJoint, PartialTreeEdge
-from .parts import nonzero_vector
 
 
 def _unit(n) -> ca.DM:
-    return n / float(ca.norm_2(n))
+    return ca.DM(unit_vector(n))
 
 
 class Revolute(PartialJoint):
     """Rotation of frame_b about the axis n (fixed in frame_a and frame_b) by the angle phi."""
 
-    n = Param([0.0, 0.0, 1.0], shape=3, check=nonzero_vector, doc="axis of rotation, resolved in frame_a")
+    n = Param([0.0, 0.0, 1.0], shape=3, check=direction, doc="axis of rotation, resolved in frame_a")
     use_flange = Flag(False, doc="expose the 1D flanges axis and support to drive the joint")
     axis = Port(RotationalFlange, enabled_by="use_flange", doc="1D flange driving the joint angle")
     support = Port(RotationalFlange, enabled_by="use_flange", doc="1D support flange (reaction)")
@@ -65,7 +64,7 @@ class Revolute(PartialJoint):
 class Prismatic(PartialJoint):
     """Translation of frame_b along the axis n (fixed in frame_a) by the distance s."""
 
-    n = Param([1.0, 0.0, 0.0], shape=3, check=nonzero_vector, doc="axis of translation, resolved in frame_a")
+    n = Param([1.0, 0.0, 0.0], shape=3, check=direction, doc="axis of translation, resolved in frame_a")
     use_flange = Flag(False, doc="expose the 1D flanges axis and support to drive the joint")
     axis = Port(TranslationalFlange, enabled_by="use_flange", doc="1D flange driving the joint distance")
     support = Port(TranslationalFlange, enabled_by="use_flange", doc="1D support flange (reaction)")

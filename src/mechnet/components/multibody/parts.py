@@ -5,14 +5,10 @@ import casadi as ca
 import numpy as np
 
 from ...core.component import Component
-from ...core.declarations import Flag, Param, Port, positive
+from ...core.declarations import Flag, Param, Port, direction, positive, unit_vector
 from ...inertia import inertia_problem
 from .frames import axis_rotation
 from .interfaces import Frame, PartialBody, PartialTreeEdge
-
-
-def nonzero_vector(value):
-    return None if np.linalg.norm(value) > 0 else "must not be the zero vector (it gives a direction)"
 
 
 def physical_inertia(value):
@@ -72,9 +68,9 @@ class FixedRotation(PartialTreeEdge):
     """frame_b fixed at r from frame_a and rotated by `angle` (rad) about the axis n (frame_a)."""
 
     r = Param([0.0, 0.0, 0.0], unit="m", shape=3, doc="origin of frame_b, resolved in frame_a")
-    n = Param([0.0, 0.0, 1.0], shape=3, check=nonzero_vector, doc="rotation axis, resolved in frame_a")
+    n = Param([0.0, 0.0, 1.0], shape=3, check=direction, doc="rotation axis, resolved in frame_a")
     angle = Param(0.0, unit="rad", doc="rotation angle from frame_a to frame_b")
 
     def relative_motion(self):
-        n = self.n / float(ca.norm_2(self.n))
+        n = ca.DM(unit_vector(self.n))
         return ca.SX(self.r), axis_rotation(n, self.angle)
