@@ -11,6 +11,7 @@ integrators kept per thread (`per_thread`), each thread's cache bounded (`Bounde
 """
 from __future__ import annotations
 
+import functools
 import threading
 from collections import OrderedDict
 
@@ -78,3 +79,13 @@ class PerThread:
 
     def __setstate__(self, state):
         self.__init__(state["size"])
+
+
+def builds_symbols(function):
+    """Decorator for an entry point that builds expressions on every call (linearize, trim, kinematics):
+    it runs under BUILD_LOCK, so threads calling it at once take turns instead of corrupting the heap."""
+    @functools.wraps(function)
+    def locked(*args, **kwargs):
+        with BUILD_LOCK:
+            return function(*args, **kwargs)
+    return locked

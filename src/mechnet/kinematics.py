@@ -8,10 +8,12 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from .caches import builds_symbols
 from .core.declarations import finite_number
 from .core.errors import InputError, SceneError, UnknownNameError
 
 
+@builds_symbols
 def kinematics(cm, q: dict | None = None, qd: dict | None = None, params: dict | None = None) -> dict:
     """{frame label: {"r_0", "R", "v_0", "w_0"}} (world components) at joint coordinates `q` and speeds `qd`.
 

@@ -20,6 +20,7 @@ from typing import Optional
 import casadi as ca
 import numpy as np
 
+from .caches import builds_symbols
 from .core.declarations import finite_number
 from .core.errors import InitializationError, InputError, MechnetError, UnknownNameError
 from .simulate.initialize import solve_algebraic
@@ -135,6 +136,7 @@ def _jacobians(dae, rows: Optional[list]):
 
 # ------------------------------------------------------------------------------------------- linearize
 
+@builds_symbols
 def linearize(cm, x_op=None, u_op=None, *, t: Optional[float] = None, params: Optional[dict] = None,
               outputs=None) -> LinearModel:
     """Linearise the compiled model about an operating point.
@@ -239,6 +241,7 @@ def _polish(dae, t, x, z, u, p, d) -> np.ndarray:
 
 # ------------------------------------------------------------------------------------------------ trim
 
+@builds_symbols
 def trim(cm, *, inputs: Optional[dict] = None, fixed: Optional[dict] = None, free_inputs=(),
          guess: Optional[dict] = None, params: Optional[dict] = None, t: float = 0.0,
          max_iter: int = 100) -> TrimPoint:

@@ -55,17 +55,31 @@ def four_bar():
     return cm, [{"start": {"joint_a.phi": 0.2 + 0.02 * k}} for k in range(RUNS)], "joint_d.phi"
 
 
+def linearized_pendulum():
+    """linearize and kinematics build expressions on every call: they take turns (caches.builds_symbols)."""
+    cm, _, _ = multibody_pendulum()
+    angles = [0.05 * k for k in range(RUNS)]
+
+    def analyse(case):
+        lin = cm.linearize(x_op={"rev.phi": case, "rev.w": 0.0})
+        frames = mn.kinematics(cm, q={"rev": case})
+        return np.sort_complex(lin.eigenvalues()), np.asarray(frames["bob.frame_a"]["r_0"], dtype=float)
+    return cm, angles, analyse
+
+
 SCENES = {"oscillator": oscillator, "cartesian_pendulum": cartesian_pendulum,
-          "multibody_pendulum": multibody_pendulum, "four_bar": four_bar}
+          "multibody_pendulum": multibody_pendulum, "four_bar": four_bar, "linearized_pendulum": linearized_pendulum}
 
 
 def main(names):
     for name in names:
         cm, cases, watch = SCENES[name]()
-        t_end = 1.0
 
         def run(case):
-            res = cm.simulate(t_end, rtol=1e-8, atol=1e-10, n_out=51, **case)
+            if callable(watch):
+                first, second = watch(case)
+                return first, second, True
+            res = cm.simulate(1.0, rtol=1e-8, atol=1e-10, n_out=51, **case)
             return res.t.copy(), res[watch].copy(), res.failure is None
 
         results, errors = {}, []

@@ -2,8 +2,9 @@
 
 Threads: `concurrent_runs.py` runs in a subprocess (a crash then fails this test instead of killing the
 suite): 4 threads × 25 runs of one compiled model each with different parameters (or start values) must
-give bit-identical results to the same runs done one after another. Before integrators were kept per
-thread (`mechnet/caches.py`), the oscillator aborted the interpreter within a few rounds.
+give bit-identical results to the same runs done one after another (likewise linearize and
+kinematics). Before integrators were kept per thread (`mechnet/caches.py`), the oscillator aborted the
+interpreter within a few rounds.
 
 Processes: a pickled compiled model, loaded in a fresh interpreter, simulates to the last bit like the
 original.
@@ -36,7 +37,8 @@ def test_threads_give_the_sequential_results_bit_for_bit():
     proc = _run(str(HERE / "concurrent_runs.py"))
     assert proc.returncode == 0, f"the concurrent runs crashed (rc {proc.returncode}): {proc.stderr[-2000:]!r}"
     reports = {r["scene"]: r for r in map(json.loads, proc.stdout.decode().splitlines())}
-    assert set(reports) == {"oscillator", "cartesian_pendulum", "multibody_pendulum", "four_bar"}
+    assert set(reports) == {"oscillator", "cartesian_pendulum", "multibody_pendulum", "four_bar",
+                            "linearized_pendulum"}
     for scene, r in reports.items():
         assert r["errors"] == [], scene
         assert r["succeeded"] == 25, scene
