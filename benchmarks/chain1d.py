@@ -54,7 +54,7 @@ TOL_DIFF = 1e-6             # mechnet and hand-written solutions must agree to t
 REPEATS = 3
 SLOW_CALL = 30.0            # s: a cm.simulate slower than this is timed once instead of best of 3
 
-# Same plugin / options mapping as mechnet.simulate.integrator._plugin.
+# Same plugin / options mapping as mechnet.simulate.solvers.plugin_for.
 PLUGIN = {
     "idas": ("idas", {}),
     "cvodes-bdf": ("cvodes", {"linear_multistep_method": "bdf", "nonlinear_solver_iteration": "newton"}),

@@ -78,7 +78,7 @@ HAND_LINSOL = "lapacklu"    # dense LU for the hand model's mass matrix
 DEFAULT_NS = (2, 5, 10, 20, 40, 100)
 QUICK_NS = (2, 5, 10)
 
-# Same plugin / options mapping as mechnet.simulate.integrator._plugin.
+# Same plugin / options mapping as mechnet.simulate.solvers.plugin_for.
 PLUGIN = {
     "idas": ("idas", {}),
     "cvodes-bdf": ("cvodes", {"linear_multistep_method": "bdf", "nonlinear_solver_iteration": "newton"}),

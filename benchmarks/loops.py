@@ -61,7 +61,8 @@ from models import four_bar, four_bar_angles, slider_crank  # noqa: E402
 
 import mechnet as mn  # noqa: E402
 from mechnet.components import rotational as rot  # noqa: E402
-from mechnet.simulate import integrator as mn_integrator  # noqa: E402
+from mechnet.simulate import pieces as mn_pieces  # noqa: E402
+from mechnet.simulate import run as mn_run  # noqa: E402
 from mechnet.simulate.branch import Verdict  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import timing  # noqa: E402
@@ -217,8 +218,9 @@ def time_split(simulate):
             finally:
                 spent[key] += time.perf_counter() - t0
         return wrapper
-    run = mn_integrator._Run
-    with patched(mn_integrator, "_call", timer("_call", mn_integrator._call)), \
+    run = mn_run.Run
+    call = timer("_call", mn_run.call)           # the plain segments' calls and the monitored pieces'
+    with patched(mn_run, "call", call), patched(mn_pieces, "call", call), \
             patched(run, "_ratios", timer("_ratios", run._ratios)):
         total, _ = best_of(simulate, 1)
     return spent["_call"] / total, spent["_ratios"] / total
@@ -319,7 +321,7 @@ def bench(name, build_hand, rtols):
             print(f"  whole-branch check: {res.stats['selection']}; a new start point adds "
                   f"{(t_fresh - t_mn) * 1e3:.1f} ms to the run ({t_fresh:.3f} s against {t_mn:.3f} s)", flush=True)
         forced = lambda self, values, params: Verdict(False, "forced on (diagnostic)")     # noqa: E731
-        with patched(mn_integrator.SelectionMonitor, "whole_branch", forced):
+        with patched(mn_run.SelectionMonitor, "whole_branch", forced):
             simulate()
             t_nm, nm = best_of(simulate)
         row = dict(mech=name, rtol=rtol, atol=atol, t_mn=t_mn, t_hd=t_hd, err_hd=curve[-1][2], steps_hd=curve[-1][3],

@@ -4,7 +4,6 @@ runs done one after another. Prints one JSON line per scene."""
 from __future__ import annotations
 
 import json
-import math
 import sys
 import threading
 

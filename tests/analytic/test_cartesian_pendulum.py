@@ -148,7 +148,7 @@ def test_the_differentiated_constraint_is_reported_as_an_invariant():
 
 def test_a_piece_out_of_its_step_budget_prints_nothing(capfd):
     """Monitored pieces get a step budget on purpose and are retried shorter when they run out of it
-    (integrator._step_budget). SUNDIALS printed its "mxstep steps taken" message to the process's
+    (pieces._step_budget). SUNDIALS printed its "mxstep steps taken" message to the process's
     stderr each time: six lines in the demo's run of this pendulum (8 s at the default tolerances)."""
     cm = cartesian_pendulum(theta0=2.5).compile()
     res = cm.simulate(8.0)

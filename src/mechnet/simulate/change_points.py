@@ -33,7 +33,7 @@ HISTORY = 4               # recorded points used to estimate where the rank is l
 
 
 class ChangePoints:
-    """Mixin of the simulation loop (`integrator._Run`): pass a change point after a failure."""
+    """Mixin of the simulation loop (`run.Run`): pass a change point after a failure."""
 
     def _conditioning(self, ts, xs, zs, unit_rows=True):
         """σ_min/σ_max of the algebraic block ∂alg/∂z at each point, columns per unit of each variable's

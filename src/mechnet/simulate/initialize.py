@@ -91,22 +91,23 @@ def _start_terms(dae, names: tuple):
     dependence pattern, which are linear in one variable (k -> j), and a Function of (w, t, u, p)
     giving their values and coefficients at w = 0. Built once per model and set of start names: the
     symbolic work costs more than the rest of a short simulation."""
-    cache = dae.info.setdefault("_start_terms", {})
-    if names not in cache:
-        y = _symbolic_observed(dae)
-        row = {n: k for k, n in enumerate(dae.observed_names)}
-        w = ca.vertcat(dae.x, dae.z)
-        exprs = ca.vertcat(*[y[row[n]] for n in names]) if names else ca.SX(0, 1)
-        pattern = _pattern(exprs, w)
-        jac = ca.jacobian(exprs, w)
-        linear = {k: pattern[k][0] for k in range(len(names))
-                  if len(pattern[k]) == 1 and not ca.depends_on(jac[k, pattern[k][0]], w)}
-        coefficients = ca.vertcat(*[jac[k, linear[k]] if k in linear else ca.SX(0) for k in range(len(names))]) \
-            if names else ca.SX(0, 1)
-        at_zero = NumpyCall(dense(ca.Function("start_values_at_zero", [w, dae.t, dae.u, dae.p],
-                                              [exprs, coefficients])))
-        cache[names] = (exprs, pattern, linear, at_zero)
-    return cache[names]
+    return built(dae.info.setdefault("_start_terms", {}), names, lambda: _build_start_terms(dae, names))
+
+
+def _build_start_terms(dae, names: tuple):
+    y = _symbolic_observed(dae)
+    row = {n: k for k, n in enumerate(dae.observed_names)}
+    w = ca.vertcat(dae.x, dae.z)
+    exprs = ca.vertcat(*[y[row[n]] for n in names]) if names else ca.SX(0, 1)
+    pattern = _pattern(exprs, w)
+    jac = ca.jacobian(exprs, w)
+    linear = {k: pattern[k][0] for k in range(len(names))
+              if len(pattern[k]) == 1 and not ca.depends_on(jac[k, pattern[k][0]], w)}
+    coefficients = ca.vertcat(*[jac[k, linear[k]] if k in linear else ca.SX(0) for k in range(len(names))]) \
+        if names else ca.SX(0, 1)
+    at_zero = NumpyCall(dense(ca.Function("start_values_at_zero", [w, dae.t, dae.u, dae.p],
+                                          [exprs, coefficients])))
+    return exprs, pattern, linear, at_zero
 
 
 def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess: dict,
@@ -178,10 +179,11 @@ def _initial_system(dae, names: tuple, kept: tuple, conditions: list):
     order) and the algebraic equations. Its structure is checked as it is built: a fixed value that
     competes with another for the same quantity, or a state nothing fixes, is reported by name.
     Cached per model, start names and kept conditions."""
-    cache = dae.info.setdefault("_initial_systems", {})
-    key = (names, kept)
-    if key in cache:
-        return cache[key]
+    return built(dae.info.setdefault("_initial_systems", {}), (names, kept),
+                 lambda: _build_initial_system(dae, names, kept, conditions))
+
+
+def _build_initial_system(dae, names: tuple, kept: tuple, conditions: list):
     nx_, nz = dae.x.numel(), dae.z.numel()
     exprs = _start_terms(dae, names)[0]
     w = ca.vertcat(dae.x, dae.z)
@@ -205,16 +207,13 @@ def _initial_system(dae, names: tuple, kept: tuple, conditions: list):
         _too_few(missing, _underdetermined(rows_pattern, row_of_w), nx_, list(dae.x_names) + list(dae.z_names))
     fixed = ca.SX.sym("fixed", len(rows))
     res_expr = ca.vertcat(ca.vertcat(*rows) - fixed, alg) if rows_expr else ca.SX(0, 1)
-    cache[key] = _residual_pair("init_residual", w, [dae.t, dae.u, dae.p, fixed], res_expr)
-    return cache[key]
+    return _residual_pair("init_residual", w, [dae.t, dae.u, dae.p, fixed], res_expr)
 
 
 def _symbolic_observed(dae):
     """The observed expressions in the model's own symbols, built once per compiled model (a symbolic
     call of the observed function costs as much as the rest of a short simulation)."""
-    if "_observed_symbolic" not in dae.info:
-        dae.info["_observed_symbolic"] = dae.observed(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d)
-    return dae.info["_observed_symbolic"]
+    return built(dae.info, "_observed_symbolic", lambda: dae.observed(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d))
 
 
 def _match(rows_pattern, n_cols) -> np.ndarray:

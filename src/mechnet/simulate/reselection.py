@@ -23,7 +23,7 @@ from .initialize import solve_algebraic
 
 
 class Reselection:
-    """Mixin of the simulation loop (`integrator._Run`): quality along a piece and the switch."""
+    """Mixin of the simulation loop (`run.Run`): quality along a piece and the switch."""
 
     def _ratios(self, pts, xs, zs):
         """Conditioning ratio (running / best selection) at each point, and the first point to switch at."""

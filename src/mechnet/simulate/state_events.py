@@ -124,7 +124,7 @@ def _predicted(dirs, before, s, ext, g_b):
 
 
 class StateEvents:
-    """Mixin of the simulation loop (`integrator._Run`): everything about zero crossings."""
+    """Mixin of the simulation loop (`run.Run`): everything about zero crossings."""
 
     _armed = None            # side of each zero function (±1; 0 on the boundary and not moving)
     _armed_at = None         # the time they were set at

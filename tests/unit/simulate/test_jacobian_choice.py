@@ -1,9 +1,9 @@
-"""The integrator's Newton matrix is differentiated in the cheaper AD mode (integrator.jacobian_options)."""
+"""The integrator's Newton matrix is differentiated in the cheaper AD mode (solvers.jacobian_options)."""
 import casadi as ca
 import numpy as np
 
 from mechnet.components import rotational as rot
-from mechnet.simulate import integrator
+from mechnet.simulate import solvers
 
 from models import slider_crank, slider_crank_x
 
@@ -20,11 +20,11 @@ def _newton_matrix_size(dae, opts):
 
 def test_a_loop_takes_reverse_mode_which_is_the_cheaper():
     cm = _compiled()
-    choice = integrator.jacobian_options(cm.dae, "idas", {})
+    choice = solvers.jacobian_options(cm.dae, "idas", {})
     assert choice == {"allow_forward": False}
     # measured when written: 1581 against 2842 instructions
     assert _newton_matrix_size(cm.dae, choice) < 0.7 * _newton_matrix_size(cm.dae, {})
-    assert integrator.jacobian_options(cm.dae, "cvodes", {"nonlinear_solver_iteration": "functional"}) == {}
+    assert solvers.jacobian_options(cm.dae, "cvodes", {"nonlinear_solver_iteration": "functional"}) == {}
 
 
 def test_the_choice_changes_cost_not_the_solution(monkeypatch):
@@ -35,7 +35,7 @@ def test_the_choice_changes_cost_not_the_solution(monkeypatch):
     runs = []
     for forced in (None, {}):
         if forced is not None:
-            monkeypatch.setattr(integrator, "jacobian_options", lambda *a: forced)
+            monkeypatch.setattr(solvers, "jacobian_options", lambda *a: forced)
         res = _compiled().simulate(2.0, rtol=rtol, atol=atol, n_out=201)
         assert res.success
         gap = np.max(np.abs(res["slider.s"] - slider_crank_x(r, l, res["joint_a.phi"])))

@@ -1,0 +1,269 @@
+"""The simulation loop: integrate between boundaries, restart at events, stop at a failure.
+
+The run is split into segments at time events (signal steps, table knots) and, for long grids, into a
+fixed number of chunks (for the progress bar): the integrator restarts exactly at each boundary,
+deterministically. Scenes with state events or a state-selection monitor run in monitored pieces
+(`pieces.py`).
+
+A failed integration never surfaces as a CasADi traceback: the failing segment is re-integrated interval
+by interval up to the failure, and the partial result comes back with an `IntegrationError` describing
+the time, the step size and the worst variable.
+"""
+from __future__ import annotations
+
+import time as _time
+
+import numpy as np
+
+from ..caches import BUILD_LOCK
+from ..core.errors import IntegrationError, MechnetError
+from .branch import TURN_LIMIT, Verdict, state_names, turns_of, whole_turns
+from .change_points import ChangePoints
+from .events import Event, chunk_bounds
+from .initialize import solve_algebraic
+from .pieces import MonitoredPieces
+from .reselection import Reselection, SelectionMonitor
+from .solvers import Integrators, call, solver_message
+from .state_events import StateEvents
+
+PROGRESS_CHUNKS = 20
+PROGRESS_MIN_POINTS = 1000
+PROGRESS_AFTER_SECONDS = 1.0
+
+
+class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
+    """The segment loop: integrate between boundaries, restart at events, stop at a failure."""
+
+    def __init__(self, cm, dae, plugin, extra, rtol, atol, max_steps, plan, p, d, init):
+        self.cm, self.plan, self.p, self.d = cm, plan, p, d
+        self.tables = plan.table_data()
+        self.settings = (plugin, extra, rtol, atol, max_steps)
+        self._use(dae)
+        self.T, self.X, self.Z, self.D = [], [], [], []
+        self.events: list[Event] = []
+        self.failure = None
+        self.stats = {"nsteps": 0, "nfevals": 0, "netfails": 0, "segments": 0}
+        self.x, self.z = init.x.copy(), init.z.copy()
+
+    def _use(self, dae):
+        plugin, extra, rtol, atol, max_steps = self.settings
+        self.dae = dae
+        self._fold_floor = None                        # a new selection: no failed step over to remember
+        self.integrators = Integrators(self.cm, dae, plugin, extra, rtol, atol, max_steps, self.plan)
+        self.xn = np.array(dae.x_nominal, dtype=float)
+        self.zn = np.array(dae.z_nominal, dtype=float)
+
+    def _record(self, t):
+        self.T.append(t)
+        self.X.append(self.x.copy())
+        self.Z.append(self.z.copy())
+        self.D.append(self.dae)
+
+    def pvec(self, t0, h):
+        return np.concatenate([self.plan.constant, self.p, self.d, [t0, h], self.tables])
+
+    def integrate(self, grid, events, progress):
+        with BUILD_LOCK:             # the branch check builds its functions on a model's first run
+            self.monitor = SelectionMonitor.create(self.cm, self.dae)
+            if self.monitor is not None:
+                self._select_for_branch(grid[0])
+        self._record(grid[0])
+        if self.dae.x.numel() == 0:
+            for t in grid[1:]:
+                self.z = solve_algebraic(self.dae, t, self.x, self.z, self._u_at(t), self.p, self.d)
+                self._record(t)
+            return
+        event_at = {t: cause for t, cause in events}
+        if self.monitor is not None or self.dae.zero_labels:
+            self._integrate_monitored(grid, event_at)
+            return
+        cuts = sorted({int(np.searchsorted(grid, t)) for t in event_at}
+                      | set(chunk_bounds(grid.size, PROGRESS_CHUNKS if grid.size >= PROGRESS_MIN_POINTS else 1)))
+        barred = any(0 < c < grid.size - 1 for c in cuts)     # the cuts for winding alone show no bar
+        cuts = sorted(set(cuts) | set(chunk_bounds(grid.size, self._winding_chunks(grid))))
+        bounds = [0] + [c for c in cuts if 0 < c < grid.size - 1] + [grid.size - 1]
+        bar, started = None, _time.perf_counter()
+        t_cur, a = grid[0], 0
+        for b in bounds[1:]:
+            while True:                       # (state events run monitored: none here) a change point
+                points = np.concatenate([[t_cur], grid[a + 1: b + 1]])      # passed restarts the rest
+                if self._segment(points):
+                    break
+                t_next = self._pass_change_point(grid, limit=grid[b])
+                if t_next is None:
+                    if bar is not None:
+                        bar.close()
+                    return
+                t_cur = t_next
+                a = int(np.searchsorted(grid, t_cur, side="right")) - 1
+            t_cur, a = grid[b], b
+            if grid[b] in event_at:
+                self._restart_at(grid[b], event_at[grid[b]])
+            if progress is not False and bar is None and barred:
+                elapsed = _time.perf_counter() - started
+                expected = elapsed * (grid[-1] - grid[0]) / max(grid[b] - grid[0], 1e-300)
+                if progress or expected > PROGRESS_AFTER_SECONDS:
+                    from tqdm import tqdm
+                    bar = tqdm(total=float(grid[-1] - grid[0]), unit="s", desc="simulate", leave=False,
+                               bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s [{elapsed}<{remaining}]")
+                    bar.update(float(grid[b] - grid[0]))
+            elif bar is not None:
+                bar.update(float(grid[b] - grid[bounds[bounds.index(b) - 1]]))
+        if bar is not None:
+            bar.close()
+
+    def _select_for_branch(self, t):
+        """Run without the monitor when a selection holds on the whole branch (`branch.py`), switching
+        to it first if it is not the running one; else check the start, and monitor the run."""
+        verdict = self.monitor.whole_branch(
+            self.monitor.values_at(self.dae, t, self.x, self.z, self._u_at(t), self.p, self.d), self.p)
+        if verdict.holds and verdict.dummies != self.monitor.current:
+            try:
+                other = self.cm.selection(verdict.dummies)
+            except MechnetError:           # that choice cannot hold the model's resets
+                verdict = Verdict(False, f"states {', '.join(verdict.states)} cannot hold the model's resets")
+            else:
+                old = state_names(self.monitor.factory, self.monitor.current)
+                self._switch_selection(t, self._observed_at(t), verdict.dummies, other,
+                                       f"whole-branch selection: states {', '.join(old)} -> "
+                                       f"{', '.join(verdict.states)}")
+        self.stats["selection"] = verdict.describe()
+        if verdict.holds:
+            self.monitor = None               # it would never act on this branch: integrate in one piece
+        else:
+            self._reselect(t)
+
+    def _observed_at(self, t) -> np.ndarray:
+        return np.asarray(self.dae.observed(t, self.x, self.z, self._u_at(t), self.p, self.d)).ravel()
+
+    def _u_at(self, t):
+        return self.plan.at(t)[:, 0]
+
+    def _turns(self, t):
+        """The whole turns of the coordinates the equations see only through sine and cosine
+        (`branch.whole_turns`): left out of each integrator call, so an angle of thousands of turns
+        keeps the precision of one near zero (added back to the outputs)."""
+        px, pz = whole_turns(self.dae, self.x, self.z, self._u_at(t), self.p, self.d)
+        return turns_of(self.x, px), turns_of(self.z, pz)
+
+    def _winding_chunks(self, grid) -> int:
+        """Calls enough that no periodic state winds more than TURN_LIMIT in one (at its starting rate):
+        within a call the angle grows again, and with it the round-off in everything computed from it."""
+        px, _ = whole_turns(self.dae, self.x, self.z, self._u_at(grid[0]), self.p, self.d)
+        if not px.any():
+            return 1
+        rate = np.abs(np.asarray(self.dae.ode(grid[0], self.x, self.z, self._u_at(grid[0]), self.p, self.d))).ravel()
+        wind = float(np.max(np.where(px > 0, rate, 0.0))) * (grid[-1] - grid[0])
+        return int(min(np.ceil(wind / TURN_LIMIT), grid.size // 2)) if np.isfinite(wind) else 1
+
+    def _inputs_at(self, ts):
+        """The inputs at each of the times ts, one column per time."""
+        return self.plan.at(ts)
+
+    def _segment(self, points) -> bool:
+        ok, message = self._attempt(points)
+        return ok or self._recover(points, message)
+
+    def _attempt(self, points) -> tuple[bool, str]:
+        """Integrate over `points` in one call; on success append the outputs and move the state."""
+        t0, h = points[0], points[-1] - points[0]
+        F = self.integrators.get_real(tuple(float(v) for v in points))
+        ox, oz = self._turns(t0)
+        xs = (self.x - ox) / self.xn
+        zs = (self.z - oz) / self.zn if self.zn.size else np.zeros(0)
+        try:
+            out = call(F, xs, zs, self.pvec(t0, h))
+        except RuntimeError as exc:
+            return False, str(exc)
+        xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn + ox
+        zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn + oz) if self.zn.size \
+            else np.zeros((xf.shape[0], 0))
+        self.T.extend(points[1:])
+        self.X.extend(xf)
+        self.Z.extend(zf)
+        self.D.extend([self.dae] * len(xf))
+        self.x, self.z = xf[-1].copy(), zf[-1].copy()
+        s = F.stats()
+        for k in ("nsteps", "nfevals", "netfails"):
+            self.stats[k] += int(s.get(k, 0))
+        self.stats["segments"] += 1
+        self.stats["hlast"] = float(s.get("hlast", float("nan"))) * h
+        return True, ""
+
+    def _restart_at(self, t, cause):
+        """A time event: states are continuous; algebraic variables are re-solved at the new time."""
+        if self.zn.size:
+            self.z = solve_algebraic(self.dae, t, self.x, self.z, self._u_at(t), self.p, self.d)
+            self.Z[-1] = self.z.copy()
+        self.events.append(Event(float(t), "time", cause))
+
+    def _recover(self, points, message):
+        """Keep what can be integrated before the failure, with few restarts, then close in on it.
+
+        The failing segment is retried in halves (a successful piece keeps its
+        length), so restarts stay O(log n); the failing output interval is then
+        split in eight, three times over: the result ends within 1/512 of an
+        output interval of the failure. True when every piece integrated after all (the
+        failed call had a step budget, or several output intervals at once).
+        """
+        solver = solver_message(message)
+        n = points.size - 1
+        if self.zn.size and self.T:
+            # restart from algebraics consistent to Newton's precision, not just to the integrator's:
+            # IDAS's own initial-condition search can fail on a point that is consistent only to rtol
+            try:
+                self.z = solve_algebraic(self.dae, self.T[-1], self.x, self.z, self._u_at(self.T[-1]),
+                                         self.p, self.d)
+            except MechnetError:
+                pass
+        a, chunk = 0, max(1, n // 2)
+        while a < n:
+            b = min(a + chunk, n)
+            ok, text = self._attempt(points[a: b + 1])
+            if ok:
+                a = b
+                continue
+            solver = solver_message(text)
+            if b - a == 1:
+                break
+            chunk = max(1, (b - a) // 2)
+        if a == n:
+            return True                                # every piece integrated: no failure after all
+        t_fail = points[min(a + 1, n)]
+        if a < n:
+            lo, hi = points[a], points[a + 1]
+            for _ in range(3):
+                pieces = np.linspace(lo, hi, 9)
+                j = 0
+                while j < 8:
+                    ok, text = self._attempt(pieces[j: j + 2])
+                    if not ok:
+                        solver = solver_message(text)
+                        break
+                    j += 1
+                lo, hi = pieces[j], pieces[min(j + 1, 8)]
+            t_fail = hi
+        t_good = self.T[-1]
+        step = self.stats.get("hlast", float("nan"))
+        worst = _worst_variable(self.dae, t_good, self.x, self.z, self._u_at(t_good), self.p, self.d, self.xn)
+        self.failure = IntegrationError(
+            f"integration failed between t = {t_good:.6g} s and {t_fail:.6g} s (last step size {step:.3g} s); "
+            f"worst variable: {worst}; solver: {solver}. The result holds the solution up to t = {t_good:.6g} s",
+            t=float(t_good), step=step, worst=worst, solver_message=solver)
+        self.stats["failed_at"] = float(t_good)
+        return False
+
+
+def _worst_variable(dae, t, x, z, u, p, d, xn) -> str:
+    """The state changing fastest relative to its size at the last good point (or a non-finite one)."""
+    if x.size == 0:
+        return "-"
+    bad = np.flatnonzero(~np.isfinite(x))
+    if bad.size:
+        return dae.x_names[bad[0]]
+    xdot = np.asarray(dae.ode(t, x, z, u, p, d)).ravel()
+    if not np.all(np.isfinite(xdot)):
+        return dae.x_names[int(np.flatnonzero(~np.isfinite(xdot))[0])]
+    rate = np.abs(xdot) / np.maximum(np.abs(x), xn)
+    k = int(np.argmax(rate))
+    return f"{dae.x_names[k]} (value {x[k]:.4g}, rate {xdot[k]:.4g}/s)"

@@ -1,0 +1,156 @@
+"""SUNDIALS through `casadi.integrator`: the method's plugin, the integrators a compiled model keeps, the
+Newton matrix's AD mode, and one guarded call.
+
+States are integrated in scaled form (x = nominal · xs) so that one absolute tolerance means
+`atol · nominal` for each variable. Plain segments run on their own real-time grid (cached, so
+simulating the same grid again reuses it); monitored pieces and failure recovery use a time normalised
+over the piece (t = t0 + τ·h, τ ∈ [0, 1], t0 and h parameters), so one integrator serves every piece with
+the same output pattern.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import re
+
+import casadi as ca
+import numpy as np
+
+from ..caches import BUILD_LOCK
+from ..core.errors import MechnetError
+
+METHODS = ("auto", "idas", "cvodes-bdf", "cvodes-adams")
+
+
+def plugin_for(dae, method: str) -> tuple[str, str, dict]:
+    if method not in METHODS:
+        raise MechnetError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    if method == "auto":
+        method = "cvodes-bdf" if dae.is_ode else "idas"
+    if method.startswith("cvodes") and not dae.is_ode:
+        raise MechnetError(f"method {method!r} needs an explicit ODE, but this model keeps "
+                           f"{dae.z.numel()} algebraic variables ({', '.join(dae.z_names[:5])}); use 'idas' or 'auto'")
+    if method == "idas":
+        return method, "idas", {}
+    if method == "cvodes-bdf":
+        return method, "cvodes", {"linear_multistep_method": "bdf", "nonlinear_solver_iteration": "newton"}
+    return method, "cvodes", {"linear_multistep_method": "adams", "nonlinear_solver_iteration": "functional"}
+
+
+class Integrators:
+    """Builds and caches one integrator per output pattern (normalised grid), in this thread's cache of the
+    compiled model (`caches.py`: an integrator cannot serve two threads at once)."""
+
+    def __init__(self, cm, dae, plugin, extra, rtol, atol, max_steps, inputs):
+        self.cm, self.dae, self.plugin, self.extra = cm, dae, plugin, extra
+        self.rtol, self.atol, self.max_steps = rtol, atol, max_steps
+        self.inputs = inputs
+        self.base_key = (id(dae), plugin, tuple(sorted(extra.items())), rtol, atol, max_steps, inputs.key())
+
+    def get(self, tau: tuple, max_steps: int | None = None):
+        """Integrator over a normalised grid (t = t0 + τ·h): reusable for every segment of that pattern.
+        `max_steps` lowers the step limit of this call (a power of two, so few variants are built)."""
+        return self._cached(self.base_key + (tau, max_steps), lambda: self._build(tau, max_steps=max_steps))
+
+    def get_real(self, points: tuple):
+        """Integrator over a fixed grid in real time: no time scaling in the right-hand side.
+
+        Used for plain segments (reused when the same grid is simulated again);
+        the parameters keep the [u; p; d; t0; h; tables] layout, t0 and h unused.
+        """
+        return self._cached(self.base_key + ("real", points),
+                            lambda: self._build(tuple(points[1:]), t0_real=points[0]))
+
+    def _cached(self, key, build):
+        cache = self.cm.integrators()
+        if key not in cache:
+            with BUILD_LOCK:
+                cache[key] = build()
+        return cache[key]
+
+    def _build(self, tau: tuple, t0_real=None, max_steps=None):
+        """Parameters of the integrator: [u; p; d; t0; h; tables] (tables: `InputPlan.table_data`)."""
+        dae = self.dae
+        sym = ca.MX if self.inputs.varying else ca.SX
+        xs, zs = sym.sym("xs", dae.x.numel()), sym.sym("zs", dae.z.numel())
+        s, t0, h = sym.sym("tau"), sym.sym("t0"), sym.sym("h")
+        u, p, d = sym.sym("u", dae.u.numel()), sym.sym("p", dae.p.numel()), sym.sym("d", dae.d.numel())
+        tables = sym.sym("tables", self.inputs.table_data().size)
+        xn = ca.DM(list(dae.x_nominal)) if dae.x_nominal else ca.DM(0, 1)
+        zn = ca.DM(list(dae.z_nominal)) if dae.z_nominal else ca.DM(0, 1)
+        t = t0 + s * h if t0_real is None else s
+        if self.inputs.varying:
+            interp = self.inputs.interpolated(t, tables)
+            u_t = ca.vertcat(*[interp[k] if k in interp else u[k] for k in range(dae.u.numel())])
+        else:
+            u_t = u
+        args = (t, xn * xs, zn * zs, u_t, p, d)
+        rate = dae.ode(*args) / xn
+        spec = {"x": xs, "t": s, "p": ca.vertcat(u, p, d, t0, h, tables),
+                "ode": h * rate if t0_real is None else rate}
+        if dae.z.numel():
+            spec["z"] = zs
+            spec["alg"] = dae.alg(*args)
+            if sym is ca.SX:              # ode and alg share the loop's trigonometry: one elimination for both
+                spec["ode"], spec["alg"] = ca.cse([spec["ode"], spec["alg"]])
+        opts = dict(self.extra, reltol=self.rtol, abstol=self.atol, max_num_steps=max_steps or self.max_steps,
+                    disable_internal_warnings=True, show_eval_warnings=False)
+        opts["common_options"] = jacobian_options(dae, self.plugin, self.extra)
+        return ca.integrator("F", self.plugin, spec, 0.0 if t0_real is None else float(t0_real), list(tau), opts)
+
+
+JACOBIAN_CHOICE_MAX = 50_000     # residual instructions × unknowns: above it (a 10-link chain's ODE) comparing costs
+                                 # more than it can save in one run, and forward and reverse cost the same there
+
+
+def jacobian_options(dae, plugin: str, extra: dict) -> dict:
+    """How the integrator differentiates the residual for its Newton matrix: the cheaper of forward and
+    reverse mode, counted once per selection. CasADi's default picks forward mode for a loop's residual,
+    whose few state rows hold most of the work: reverse mode halves that Jacobian (slider-crank 3161 ->
+    1713 instructions, four-bar 4445 -> 2204; docs/benchmarks.md). Functional iteration (Adams) needs
+    no Jacobian."""
+    if plugin == "cvodes" and extra.get("nonlinear_solver_iteration") == "functional":
+        return {}
+    if "_jacobian_options" not in dae.info:            # per compiled selection, across runs
+        size = (dae.ode.n_instructions() + dae.alg.n_instructions()) * (dae.x.numel() + dae.z.numel())
+        choice = {}
+        if size <= JACOBIAN_CHOICE_MAX:
+            args = [dae.t, dae.x, dae.z, dae.u, dae.p, dae.d]
+            res, unknowns = ca.vertcat(dae.ode(*args), dae.alg(*args)), ca.vertcat(dae.x, dae.z)
+
+            def cost(opts):
+                return ca.Function("newton_matrix", args, [ca.jacobian(res, unknowns, opts)]).n_instructions()
+            if cost({"allow_forward": False}) < cost({}):
+                choice = {"allow_forward": False}
+        dae.info["_jacobian_options"] = choice
+    return dae.info["_jacobian_options"]
+
+
+def solver_messages_muted(mute: bool):
+    """SUNDIALS's error messages reach Python's sys.stderr through CasADi, also when a piece runs out of
+    the step budget it was given on purpose (`_step_budget`): the run retries it shorter, and the
+    message only confused users (the demo's Cartesian pendulum printed six). Muted for those calls;
+    a real failure is reported by the run itself (IntegrationError)."""
+    return contextlib.redirect_stderr(io.StringIO()) if mute else contextlib.nullcontext()
+
+
+def call(F, xs, zs, p):
+    """One integrator call. IDAS's consistent-initial-condition search can fail on a point that is
+    already consistent (its line search cannot shrink a residual that is round-off): retried once from
+    algebraic values nudged by 1e-6 relative, which it then corrects in a genuine Newton step (without
+    this, tests/analytic/test_loops.py's kinematic four-bar fails at t = 3.09 s)."""
+    try:
+        return F(x0=xs, z0=zs, p=p)
+    except RuntimeError as exc:
+        if "LINESEARCH" not in str(exc).upper() or not np.size(zs):
+            raise
+        return F(x0=xs, z0=np.asarray(zs) * (1 + 1e-6) + 1e-9, p=p)
+
+
+def solver_message(text: str) -> str:
+    """The SUNDIALS return code out of CasADi's error text (e.g. CV_TOO_MUCH_WORK)."""
+    found = re.search(r'returned "?([A-Z_]+)"?', text)
+    if found:
+        return found.group(1)
+    lines = [ln for ln in text.strip().splitlines() if ln.strip()]
+    return lines[-1] if lines else "unknown solver error"
