@@ -43,6 +43,7 @@ from ..core.errors import StructureError
 from ..components.multibody.frames import axis_rotation, exact
 from .artifacts import FlatEquation, FlatVariable
 from .loops import Loop, closure, closure_equations, direction, loop_edges, loop_root, reduce_redundancy
+from .tree_mass import check_loop_mass, sensor_equations
 
 
 def _rotation_about_z(angle):
@@ -649,7 +650,7 @@ class _Tree:
         tunables = [(sym, value) for c in self.components for sym, value in c.tunable.values()]
         bases = reduce_redundancy(self.cuts, [r for r, _, _, _ in parts], coordinates,
                                   (self.let_symbols, self.let_values), tunables, lambda k: loops[k].describe(), axes)
-        self.check_loop_mass([ca.mtimes(ca.DM(K.T), r) for (r, _, _, _), (K, _) in zip(parts, bases) if K.shape[1]],
+        check_loop_mass(self, [ca.mtimes(ca.DM(K.T), r) for (r, _, _, _), (K, _) in zip(parts, bases) if K.shape[1]],
                              coordinates)
         for k, (e, (res, wrench, balance, drive), (K, N)) in enumerate(zip(self.cuts, parts, bases)):
             loop = replace(loops[k], kept=K.shape[1],
@@ -657,104 +658,10 @@ class _Tree:
             tree.loops.append(loop)
             tree.equations.extend(closure_equations(e, loop, res, wrench, balance, drive, K, N, axes[k]))
 
-    def check_loop_mass(self, kept, coordinates):
-        """A joint on a loop that moves no mass itself (dynamics) is well posed when the mechanism gives its
-        freedom mass: the kinetic energy's Hessian M in the speeds, restricted to the motions the kept
-        closures allow (null space Z of their Jacobian G), must be nonsingular. Judged at two random
-        configurations, assembled (Gauss-Newton on the closures) where they can be; flange-driven
-        coordinates count as driven (unit mass), cut coordinates carry none."""
-        if not self._unmoved:
-            return
-        speeds = [qd for _, _, qd in self.coordinates]
-        kinetic = ca.SX(0)
-        for n, bodies in self.bodies_at.items():
-            k = self.kin[n]
-            for body in bodies:
-                m, r_cm, I = body.mass_properties()
-                c = ca.mtimes(k.R, r_cm)
-                vc = k.v + _cross(k.w, c)
-                w_b = ca.mtimes(k.R.T, k.w)                  # ω in body axes
-                kinetic += 0.5 * m * ca.dot(vc, vc) + 0.5 * ca.dot(w_b, ca.mtimes(I, w_b))
-        _, (kinetic,) = ca.substitute_inplace(self.let_symbols, self.let_values, [kinetic], False)
-        qd = ca.vertcat(*speeds)
-        M = ca.SX.zeros(len(coordinates), len(coordinates))
-        M[:len(speeds), :len(speeds)] = ca.hessian(kinetic, qd)[0]
-        joints = [self.joint[path][0] for path, _, _ in self.coordinates] + [e for e in self.cuts if e.dof]
-        driven = [i for i, e in enumerate(joints) if getattr(e, "use_flange", False)]
-        q = ca.vertcat(*coordinates)
-        G = ca.jacobian(ca.vertcat(*kept), q) if kept else ca.SX(0, len(coordinates))
-        tunables = [(sym, value) for c in self.components for sym, value in c.tunable.values()]
-        p = ca.vertcat(*[sym for sym, _ in tunables]) if tunables else ca.SX(0, 1)
-        pv = [v for _, v in tunables]
-        fn = ca.Function("loop_mass", [q, qd, p], [M, G, ca.vertcat(*kept) if kept else ca.SX(0, 1)])
-        rng = np.random.default_rng(2468)
-        weak, judged = set(), 0
-        for _ in range(2):
-            qv = rng.uniform(-np.pi, np.pi, q.numel())
-            for _ in range(30):                        # assemble: min-norm Newton steps onto the closures
-                Mv, Gv, rv = (np.asarray(x) for x in fn(qv, np.zeros(qd.numel()), pv))
-                if not rv.size or not np.all(np.isfinite(rv)) or np.max(np.abs(rv)) <= 1e-12:
-                    break
-                qv = qv - np.linalg.lstsq(Gv, rv.ravel(), rcond=None)[0]
-            if not (np.all(np.isfinite(Mv)) and np.all(np.isfinite(Gv))):
-                continue
-            judged += 1
-            scale = max(np.trace(Mv), 1e-300)
-            Mv[driven, driven] += scale                # a flange drives these: count them as heavy
-            _, sv, Vt = np.linalg.svd(Gv) if Gv.size else (None, np.zeros(0), np.eye(q.numel()))
-            Z = Vt[int(np.sum(sv > 1e-9 * max(sv.max(initial=0.0), 1e-300))):].T
-            lam, vec = np.linalg.eigh(Z.T @ Mv @ Z)
-            bad = [Z @ vec[:, i] for i in range(len(lam)) if lam[i] <= 1e-12 * scale]
-            if not bad:
-                return
-            weak |= {e.path for v in bad for i, e in enumerate(joints) if abs(v[i]) > 1e-6 * np.max(np.abs(v))}
-        if not judged:
-            return
-        named = [e for e in self._unmoved if e.path in weak] or self._unmoved
-        one = len(named) == 1
-        raise StructureError(
-            ", ".join(f"joint {e.path} ({type(e).__name__})" for e in named)
-            + (" moves" if one else " move") + " no mass: neither what lies beyond in the tree nor the kinematic "
-            f"loop gives {'its' if one else 'their'} motion mass (or inertia about the axis), so the acceleration "
-            "is undetermined; attach a Body that the loop moves, or drive a joint through its flange "
-            "(use_flange=True)")
-
     def scene_sensors(self, tree):
-        """SystemEnergy and SystemMomentum: sums over the bodies (and the force elements' stored energy)."""
-        from ..components.multibody.sensors import PartialSceneSensor, SystemEnergy, SystemMomentum
-        sensors = [c for c in self.components if isinstance(c, PartialSceneSensor)]
-        if not sensors:
-            return
-        kinetic, potential = ca.SX(0), ca.SX(0)
-        parts = []                                   # (m, r_cm world, v_cm world, I_cm world, ω)
-        for n, bodies in self.bodies_at.items():
-            k = self.kin[n]
-            for body in bodies:
-                m, r_cm, I = body.mass_properties()
-                c = ca.mtimes(k.R, r_cm)
-                rc, vc = k.r + c, k.v + _cross(k.w, c)
-                Iw = ca.mtimes(k.R, ca.mtimes(I, k.R.T))
-                parts.append((m, rc, vc, Iw, k.w))
-                kinetic += 0.5 * m * ca.dot(vc, vc) + 0.5 * ca.dot(k.w, ca.mtimes(Iw, k.w))
-                if self.world.point_gravity:
-                    potential -= self.world.mue * m / ca.norm_2(rc)
-                else:
-                    potential -= m * ca.dot(self.world.g, rc)
-        for comp in self.components:
-            stored = getattr(comp, "potential_energy", None)
-            if callable(stored) and stored() is not None:
-                potential += stored()
-        for sensor in sensors:
-            if isinstance(sensor, SystemEnergy):
-                _eq(tree, sensor, sensor.kinetic - kinetic, "kinetic energy of all bodies")
-                _eq(tree, sensor, sensor.potential - potential, "potential energy: gravity and force elements")
-                _eq(tree, sensor, sensor.total - kinetic - potential, "total mechanical energy")
-            elif isinstance(sensor, SystemMomentum):
-                p = sum((m * vc for m, _, vc, _, _ in parts), ca.SX.zeros(3))
-                L = sum((_cross(rc - sensor.point, m * vc) + ca.mtimes(Iw, w) for m, rc, vc, Iw, w in parts),
-                        ca.SX.zeros(3))
-                _eq(tree, sensor, sensor.p - p, "linear momentum")
-                _eq(tree, sensor, sensor.L - L, "angular momentum about the point")
+        """SystemEnergy and SystemMomentum: sums over the bodies (`tree_mass.sensor_equations`)."""
+        for sensor, residual, doc in sensor_equations(self):
+            _eq(tree, sensor, residual, doc)
 
 
 def build_tree(components, graph: nx.Graph):
