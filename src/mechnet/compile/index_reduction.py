@@ -23,6 +23,7 @@ from ..caches import BUILD_LOCK, built
 from ..core.errors import StructureError
 from ..numeric import NumpyCall, dense, mapped
 from .artifacts import FlatEquation, FlatSystem, FlatVariable
+from .structure import maximum_matching
 
 _DUMMY_PREFERENCE = {"never": 0, "avoid": 1, "default": 2, "prefer": 3, "always": 4}
 
@@ -155,6 +156,8 @@ class _Graph:
         return False
 
     def pantelides(self, n_equations: int, max_rounds: int):
+        if self._perfectly_matched(n_equations):
+            return True
         # constraints (equations with no unknown to match) first: while few equations are matched,
         # their augmenting searches stay short (O(N) on a geared chain instead of O(N²))
         order = sorted(range(n_equations), key=lambda e: sum(1 for v in self.inc[e] if self.visible(v)))
@@ -177,6 +180,22 @@ class _Graph:
                 for v in coloured_v:
                     self.assign[self.der[v]] = self.diff[self.assign[v]]
                 i = self.diff[i]
+        return True
+
+
+    def _perfectly_matched(self, n_equations: int) -> bool:
+        """Every equation has an unknown of its own (one maximum matching, in C): then Pantelides would
+        find an augmenting path for each and differentiate nothing. Why ask first: on a long chain its
+        ~7 searches per body each walk O(N) of the matched graph (a 1000-body chain: 70 s)."""
+        unknowns = [v for v in range(len(self.kind)) if self.visible(v)]
+        if len(unknowns) != n_equations:
+            return False
+        position = {v: k for k, v in enumerate(unknowns)}
+        rows = [[position[v] for v in self.inc[e] if v in position] for e in range(n_equations)]
+        matched = maximum_matching(rows, len(unknowns))
+        if len(matched) < n_equations:
+            return False
+        self.assign = {unknowns[k]: e for e, k in matched.items()}
         return True
 
 
