@@ -213,7 +213,8 @@ class SemiExplicitDAE:
         """Pickled without the run-time caches kept in `info` under "_" keys (maps, Newton functions):
         they are rebuilt on first use, and would only make the pickle larger."""
         state = dict(self.__dict__)
-        state["info"] = {k: v for k, v in self.info.items() if not k.startswith("_")}
+        info = dict(self.info)        # one copy (atomic): a run in another thread may be adding its caches
+        state["info"] = {k: v for k, v in info.items() if not k.startswith("_")}
         return state
 
     @property

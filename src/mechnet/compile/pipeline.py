@@ -7,6 +7,7 @@ from __future__ import annotations
 import time as _time
 from dataclasses import dataclass, field
 
+from ..caches import builds_symbols
 from .alias import SimplifyOptions, simplify
 from .casadi_dae import EmitOptions, emit
 from .flatten import FlattenOptions, flatten
@@ -23,7 +24,10 @@ class CompileOptions:
     emit: EmitOptions = field(default_factory=EmitOptions)
 
 
+@builds_symbols
 def compile_model(model, options: CompileOptions | None = None):
+    """Under the build lock (`caches.py`): a compile in one thread and a run's first build in another
+    would otherwise create expressions at once."""
     from .compiled import CompiledModel
 
     options = options or CompileOptions()

@@ -93,8 +93,9 @@ def check_loop_mass(t, kept, coordinates):
             if not rv.size or not np.all(np.isfinite(rv)) or np.max(np.abs(rv)) <= 1e-12:
                 break
             qv = qv - np.linalg.lstsq(Gv, rv.ravel(), rcond=None)[0]
-        if not (np.all(np.isfinite(Mv)) and np.all(np.isfinite(Gv))):
-            continue
+        assembled = not rv.size or (np.all(np.isfinite(rv)) and np.max(np.abs(rv)) <= 1e-9)
+        if not (assembled and np.all(np.isfinite(Mv)) and np.all(np.isfinite(Gv))):
+            continue                                # judge only configurations the loop can take
         judged += 1
         scale = max(np.trace(Mv), 1e-300)
         Mv[driven, driven] += scale                # a flange drives these: count them as heavy

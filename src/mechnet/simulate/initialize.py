@@ -18,6 +18,7 @@ import networkx as nx
 import numpy as np
 
 from ..caches import built
+from ..compile.structure import maximum_matching
 from ..core.errors import InitializationError
 from ..numeric import NumpyCall, dense
 
@@ -217,16 +218,12 @@ def _symbolic_observed(dae):
 
 
 def _match(rows_pattern, n_cols) -> np.ndarray:
-    """Maximum bipartite matching rows ↔ columns (SciPy, Hopcroft–Karp in C): for each column its row or -1."""
-    from scipy.sparse import csr_matrix
-    from scipy.sparse.csgraph import maximum_bipartite_matching
-
-    if not rows_pattern or n_cols == 0:
-        return np.full(n_cols, -1)
-    r = [k for k, cols in enumerate(rows_pattern) for _ in cols]
-    c = [j for cols in rows_pattern for j in cols]
-    graph = csr_matrix((np.ones(len(r)), (r, c)), shape=(len(rows_pattern), n_cols))
-    return maximum_bipartite_matching(graph, perm_type="row")
+    """Maximum bipartite matching rows ↔ columns (`structure.maximum_matching`): for each column its row
+    or -1."""
+    row_of = np.full(n_cols, -1)
+    for row, col in maximum_matching(rows_pattern, n_cols).items():
+        row_of[col] = row
+    return row_of
 
 
 def _underdetermined(rows_pattern, row_of_w) -> list[int]:
