@@ -9,6 +9,7 @@ import numpy as np
 from ..core.errors import InitializationError, MechnetError, ParameterError, UnknownNameError
 from ..core.declarations import finite_number
 from ..numeric import mapped_in
+from ..solver_output import captured
 from .branch import selections, state_names
 from .events import breakpoints, output_grid
 from .initialize import initialize
@@ -89,10 +90,12 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     events = breakpoints(dae.time_events, t_start, t_end)
     grid = output_grid(grid, events)
     run = Run(cm, dae, plugin, extra, rtol, atol, max_steps, plan, p, d, init)
-    run.integrate(grid, events, progress)
+    with captured() as messages:             # SUNDIALS's text stays with this run (solver_output.py)
+        run.integrate(grid, events, progress)
     stats = run.stats
     stats["wall_time"] = _time.perf_counter() - wall
     stats["method"], stats["plugin"] = method, plugin
+    stats["solver_messages"] = messages
     T = np.array(run.T)
 
     def observe() -> np.ndarray:
@@ -128,7 +131,9 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
                     initial={"fixed": init.fixed, "free_states": init.free_states, "residual": init.residual})
     if run.failure is not None:
         run.failure.result = result
-        warnings.warn(str(run.failure), IntegrationWarning, stacklevel=3)
+        said = f"; SUNDIALS said {messages[-1]!r} (all {len(messages)} messages in res.stats['solver_messages'])" \
+            if messages else ""
+        warnings.warn(str(run.failure) + said, IntegrationWarning, stacklevel=3)
     return result
 
 
