@@ -60,6 +60,38 @@ def test_the_runs_of_the_issue_stop_at_the_accumulation(ball, t_end, n_out):
     assert 0.9 * T_INF <= res.t[-1] <= T_INF + 1e-6
 
 
+@pytest.mark.parametrize("t_end, n_out", [(100.0, 2), (100.0, 11), (1000.0, 2)])
+def test_the_accumulation_does_not_depend_on_the_horizon(ball, t_end, n_out):
+    # rtol = atol = 1e-6, scale 1 s and 1 m: the accumulation is judged from the impacts alone. Every impact
+    # before 0.9·T∞ within 100·k·rtol s of the closed form, the height above −10·(atol + rtol·h0), and the run
+    # stops at the accumulation, at or after 0.9·T∞ (measured 4.054 s of 4.064). The review: with t_end = 100,
+    # n_out = 2 it stopped at 3.31 s, with t_end = 1000 after two impacts at 1.17 s (the Zeno test compared the
+    # gap with the output interval).
+    with pytest.warns(mn.IntegrationWarning, match="event accumulation"):
+        res = ball.simulate(t_end, rtol=1e-6, atol=1e-6, n_out=n_out)
+    assert isinstance(res.failure, mn.IntegrationError) and LABEL in str(res.failure)
+    times = np.array([e.t for e in res.events if e.kind == "state"])
+    exact = _impact_times(len(times))
+    k = np.arange(1, 11)
+    assert np.sum(exact < 0.9 * T_INF) == 10 and np.all(np.abs(times[:10] - exact[:10]) <= 100 * k * 1e-6)
+    assert np.min(res["b.h"]) >= -10 * (1e-6 + 1e-6 * H0)
+    assert 0.9 * T_INF <= res.t[-1] <= T_INF + 1e-6 and res.t[-1] == times[-1]
+
+
+@pytest.mark.slow
+def test_an_elastic_ball_never_accumulates():
+    # e = 1 from 0.2 m: impacts at t_k = t₁ (2k − 1), t₁ = sqrt(2·0.2/g), 743 of them in 300 s (rtol = atol = 1e-8,
+    # n_out = 2, scale 1 s): every one, the k-th within 10·rtol·k² s (the energy error per flight adds up into a
+    # phase error: measured 0.8·rtol·k²), and no accumulation. The review: stopped at 0.61 s, "too close to
+    # resolve", after two impacts.
+    res = bouncing_ball(0.2, 1.0).compile().simulate(300.0, rtol=1e-8, atol=1e-8, n_out=2)
+    assert res.success
+    times = np.array([e.t for e in res.events if e.kind == "state"])
+    t1 = np.sqrt(2 * 0.2 / G)
+    k = np.arange(1, times.size + 1)
+    assert times.size == 743 and np.all(np.abs(times - t1 * (2 * k - 1)) <= 10 * 1e-8 * k ** 2)
+
+
 def test_a_ball_at_rest_on_the_floor_is_an_accumulation_at_the_start(ball):
     # h = 0, v = 0: on the boundary, ḣ = 0 and ḧ = −g < 0, so the falling condition crosses now; the reset
     # (v = −e·0) leaves it there: the run stops at t = 0 naming the When instead of falling through (the

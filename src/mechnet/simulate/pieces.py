@@ -11,6 +11,10 @@ HORIZON_REACH = 2.0             # a piece aimed at a predicted switch reaches th
 PIECE_GROWTH = 4                # and one that needed no cut makes the next this many times longer (both
                                 # while the run has had no switch, change point or state event)
 MAX_PIECE_POINTS = 20_000       # monitor points in one piece at most
+MONITOR_STEPS = 2.0             # with zero functions: monitor points about this many solver steps apart,
+MONITOR_REDO = 3.0              # and a piece whose points lie more steps apart than this is integrated again
+                                # finer before "no crossing" is accepted (`state_events.py`: why that makes
+                                # detection a guarantee)
 
 
 class MonitoredPieces:
@@ -31,6 +35,12 @@ class MonitoredPieces:
         benchmark's loops run in 5 calls (were 11–14). A failed piece is retried at half its
         length, and at most half-way to the last point it reached. A piece holds at most MAX_PIECE_POINTS
         monitor points (memory: the monitor batches them all).
+
+        With zero functions the monitor spacing also follows the solver: at most MONITOR_STEPS mean
+        solver steps (of the last piece) apart, and a piece found afterwards to have its points more
+        than MONITOR_REDO of its own mean steps apart is integrated again at that spacing before its
+        crossings are searched (the first piece, or one where the solution quickens). Where that needs
+        more than MAX_PIECE_POINTS points the piece ends earlier, inside an output interval if need be.
         """
         n_int = grid.size - 1
         longest = n_int
@@ -38,6 +48,9 @@ class MonitoredPieces:
         density = 4                                   # monitor points per output interval
         fraction = 1.0                                # of the first interval, when pieces must be short
         grid_set = set(grid.tolist())
+        spacing = np.inf                              # the longest monitor interval zero functions allow
+        reach = np.inf                                # how far a piece reaches (after state events)
+        redone = 0                                    # times the current piece was integrated again finer
         t_cur, k = grid[0], 0                         # current time; next output index is k + 1
         if not self._arm(t_cur):                      # a condition crossing at the start fired at once
             return
@@ -51,14 +64,16 @@ class MonitoredPieces:
             first_end = t_cur + fraction * (grid[k + 1] - t_cur)
             starts = np.concatenate([[t_cur], grid[k + 1: k_end]])
             ends = np.concatenate([[first_end], grid[k + 2: k_end + 1]])
-            steps = np.arange(1, density + 1) / density          # density points per span, its end last
-            inner = starts[:, None] + (ends - starts)[:, None] * steps[None, :]
-            inner[:, -1] = ends                                   # ends exactly on the output times
-            pts = np.concatenate([[t_cur], inner.ravel()])
-            is_output = [False] * pts.size
-            for j, b in enumerate(ends):
-                is_output[(j + 1) * density] = bool(b == grid[k + 1] or b in grid_set)
+            pts, is_output, span_at = _monitor_points(t_cur, starts, ends, density, spacing, grid[k + 1],
+                                                      grid_set, t_cur + reach)
             ok, message, xs, zs = self._dense(pts, budgeted=per_piece > 1 or fraction < 1)
+            if ok and self.dae.zero_labels and redone < 2:
+                # coarser than the solver's own steps: integrate again finer before searching crossings
+                h_solver = self._mean_step
+                if h_solver > 0 and np.max(np.diff(pts)) > MONITOR_REDO * h_solver:
+                    spacing, redone = MONITOR_STEPS * h_solver, redone + 1
+                    continue
+            redone = 0
             t_next = self._step_over_from(t_cur, grid) if not ok else None
             if t_next is not None:                    # failed at a change point: shorter pieces cannot help
                 t_cur, per_piece, fraction = t_next, 1, 1.0
@@ -72,8 +87,11 @@ class MonitoredPieces:
                     if self._failed_at is not None else 0
                 per_piece = max(1, min(per_piece // 2, reached // 2)) if reached > 0 else per_piece // 2
                 continue
-            if not ok and self.monitor is not None and fraction > 1e-3:
-                fraction /= 4                         # a switch due within this interval: take part of it
+            if not ok and (self.monitor is not None or self.dae.zero_labels) and fraction > 1e-3:
+                # a switch due within this interval, or monitor points too far apart for the solver's step
+                # limit (zero functions: `_recover` would integrate on without looking for crossings):
+                # take part of it
+                fraction /= 4
                 density = min(256, density * 2)
                 continue
             if not ok:
@@ -92,7 +110,12 @@ class MonitoredPieces:
             found = self._first_fold(pts, xs, zs) if self.refine_at is None else None
             fold, conds = found if found is not None else (None, None)
             before = [j for j in range(fold) if pts[j] < pts[fold]] if fold is not None else []
+            crossing = None
             if before and pts[fold] > t_cur and (switch_at is None or fold <= switch_at):
+                # a zero crossing before the change point comes first (and the functions are armed at it)
+                crossing = self._first_crossing(pts, xs, zs, fold)
+            if crossing is None and self.failure is None and before and pts[fold] > t_cur \
+                    and (switch_at is None or fold <= switch_at):
                 # a change point ahead: keep the piece up to it, then step over it with the velocity
                 for m in range(1, fold + 1):
                     if is_output[m]:
@@ -107,9 +130,16 @@ class MonitoredPieces:
                 k = int(np.searchsorted(grid, t_cur, side="right")) - 1
                 continue
             limit = switch_at if self.refine_at is None else self.refine_at
-            crossing = self._first_crossing(pts, xs, zs, limit)
+            if crossing is None and self.failure is None:
+                crossing = self._first_crossing(pts, xs, zs, limit)
             if crossing is not None:
                 switch_at = None
+            if self.failure is not None:              # the crossing search failed: keep up to its start
+                for m in range(1, crossing + 1):
+                    if is_output[m]:
+                        self.x, self.z = xs[m], zs[m]
+                        self._record(pts[m])
+                return
             if self.refine_at is not None and crossing is None:
                 # the monitor was too coarse for this stretch: keep what is safe, look closer from there
                 stop = self.refine_at
@@ -131,17 +161,24 @@ class MonitoredPieces:
                 t_cur = self._handle_event(pts[stop], xs[stop].copy(), zs[stop].copy(), pts[stop + 1])
                 if self.failure is not None:
                     return
-                density = self._event_density(density, grid[1] - grid[0])
+                self._check_accumulation()
                 if self.failure is not None:
                     return
                 per_piece = 1
+                # the next piece reaches twice as far as the last gap between state events (not to the end
+                # of a long output interval, integrated again after every event), growing while quiet
+                times = [e.t for e in self.events if e.kind == "state" and e.t < t_cur]
+                reach = 2.0 * (t_cur - (times[-1] if times else grid[0]))
+                reach = reach if reach > 0 else np.inf
+            else:
+                reach *= PIECE_GROWTH
             k = int(np.searchsorted(grid, t_cur, side="right")) - 1
             if t_cur == grid[k] and k > 0 and grid[k] in event_at:
                 self._restart_at(grid[k], event_at[grid[k]])
             if switch_at is not None:
                 self._reselect(t_cur)
                 # a switch cut the piece: what came after it was wasted, so aim shorter next time
-                per_piece = max(1, min(per_piece, int(np.ceil((stop / density) * 1.5))))
+                per_piece = max(1, min(per_piece, int(np.ceil(span_at[stop] * 1.5))))
             else:
                 # while nothing but time events has happened, pieces grow fast and far (a mechanism that
                 # never switches pays few restarts); once the run has switched, stepped over a change
@@ -178,12 +215,16 @@ class MonitoredPieces:
                 density *= 2
             elif worst < 0.01 and density > 1 and self.monitor is not None:
                 density //= 2
-            # never coarser than about two solver steps with zero crossings to find (what the solver
-            # resolves, the crossing search sees), or SOLVER_STEPS_PER_CHECK for the quality alone
+            # never coarser than about MONITOR_STEPS solver steps with zero crossings to find (what the
+            # solver resolves, the crossing search sees: `spacing`, in seconds, capped per piece not per
+            # output interval), or SOLVER_STEPS_PER_CHECK for the quality alone
             h_solver = getattr(self, "_mean_step", 0.0)
             if np.isfinite(h_solver) and h_solver > 0:
-                per_check = 2.0 if self.dae.zero_labels else SOLVER_STEPS_PER_CHECK
-                density = int(min(1024, max(density, np.ceil((grid[1] - grid[0]) / (per_check * h_solver)))))
+                if self.dae.zero_labels:
+                    spacing = MONITOR_STEPS * h_solver
+                if self.monitor is not None:
+                    density = int(min(1024, max(density, np.ceil((grid[1] - grid[0]) /
+                                                                  (SOLVER_STEPS_PER_CHECK * h_solver)))))
 
     def _dense(self, pts, budgeted=False):
         """One integrator call over pts (unrecorded); returns the states at every point. `budgeted`:
@@ -228,3 +269,34 @@ class MonitoredPieces:
             return None
         budget = 2 ** int(np.ceil(np.log2(max(1024.0, 8.0 * steps / t_done * gap))))
         return budget if budget < self.settings[4] else None
+
+
+def _monitor_points(t_cur, starts, ends, density, spacing, next_output, grid_set, t_reach=np.inf):
+    """The monitor points of a piece over the spans [starts, ends] (output intervals; the first may start
+    or end inside one), up to t_reach at most: at least `density` per span, and at most `spacing` s apart
+    (per span a power of two, so integrators are reused). Over MAX_PIECE_POINTS the piece ends earlier:
+    after fewer spans, or inside its first span. Returns the points (t_cur first), which of them are
+    output times, and where each lies in spans (2.5: half-way through the third)."""
+    if t_reach < ends[-1]:
+        keep = max(1, int(np.searchsorted(starts, t_reach, side="left")))
+        starts, ends = starts[:keep].copy(), ends[:keep].copy()
+        ends[-1] = min(ends[-1], max(t_reach, starts[-1] + 1e-3 * (ends[-1] - starts[-1])))
+    counts = np.full(starts.size, density, dtype=np.int64)
+    if np.isfinite(spacing) and spacing > 0:
+        need = np.ceil((ends - starts) / spacing)
+        counts = np.maximum(counts, 2 ** np.ceil(np.log2(np.maximum(need, 1.0))).astype(np.int64))
+    total = np.cumsum(counts)
+    keep = max(1, int(np.searchsorted(total, MAX_PIECE_POINTS, side="right")))
+    starts, ends, counts = starts[:keep].copy(), ends[:keep].copy(), counts[:keep]
+    if counts[0] > MAX_PIECE_POINTS:              # one span is too much: the piece ends inside it
+        n = 2 ** int(np.floor(np.log2(MAX_PIECE_POINTS)))
+        ends[0] = starts[0] + (ends[0] - starts[0]) * n / counts[0]
+        counts[0] = n
+    parts, is_output, span_at = [np.array([t_cur])], [False], [np.zeros(1)]
+    for j, (a, b, c) in enumerate(zip(starts, ends, counts)):
+        inner = a + (b - a) * np.arange(1, c + 1) / c
+        inner[-1] = b                             # ends exactly on the output times
+        parts.append(inner)
+        is_output.extend([False] * (c - 1) + [bool(b == next_output or b in grid_set)])
+        span_at.append(j + np.arange(1, c + 1) / c)
+    return np.concatenate(parts), is_output, np.concatenate(span_at)

@@ -14,35 +14,84 @@ independent of the output grid and the tolerance:
   with its new side (a bounce: h = 0, ḣ > 0, armed +, the next impact found;
   a sensor whose reset keeps ḣ < 0 has completed its crossing); one that the
   reset leaves on its boundary with ġ = 0 and g̈ pushing it across fires again at
-  the same instant, which is an accumulation (a ball at rest) and stops the run.
+  the same instant. A reset may make other conditions cross (jump to their other
+  side, or onto their boundary moving into their direction): they fire at the
+  same instant, in rounds, up to MAX_CASCADE rounds; a round that repeats an
+  earlier one (the same functions firing from the same state: a ball at rest,
+  whose reset v → −e·0 changes nothing) or one past that bound is an
+  accumulation and stops the run. A non-directional ("both") condition fires
+  on a change of sign only: one that merely leaves 0 (after resting there with
+  ġ = g̈ = 0) has not crossed; a directional one leaving its boundary into its
+  direction has.
 - **Excursions between monitor points.** g and ġ at both ends of each monitor
   interval define a cubic Hermite interpolant; its extrema inside the interval
   are checked too, so a whole excursion (down through zero and back) between
-  two points is found and bracketed by re-integration to the extremum. The
-  cubic is exact when g is at most cubic in t along the solution (a ball's
-  height in free flight); otherwise it deviates by at most Δ⁴·max|g⁗|/384 over
-  an interval Δ, and monitor points are at most about two solver steps apart
-  (`_integrate_monitored`), the resolution the solver itself has of the
-  solution. A predicted crossing that re-integration does not confirm is
-  searched again on the sub-intervals between the checked extrema.
+  two points is found and bracketed by re-integration to the extremum. A
+  predicted crossing that re-integration does not confirm is searched again on
+  the sub-intervals between the checked extrema.
+
+  Why this is a guarantee and not a property of the output grid: a sign change
+  at monitor points is always found, so a crossing can be missed only when g
+  crosses and comes back within one monitor interval Δ while the cubic stays on
+  the armed side. The cubic interpolates g with error at most Δ⁴·max|g⁗|/384
+  on the interval (exact when g is at most cubic in t along the solution, as a
+  ball's height in free flight), so only an excursion shallower than that bound
+  can be missed. The monitor points are placed from the solver's own steps, not
+  from the output grid: each piece is checked after its integration, and one
+  whose monitor spacing exceeds MONITOR_REDO solver steps (the mean step of that
+  piece) is integrated again at MONITOR_STEPS steps per monitor interval (at
+  most twice) before "no crossing" is accepted (`pieces.py`). With Δ ≈ 2 solver
+  steps the bound is of the order of the solver's own local error (a step h of
+  order q ≥ 3 keeps h^(q+1)·|x^(q+1)| near the tolerance): what is missed is an
+  excursion the integrator itself does not resolve, whatever n_out. (The mean
+  step stands in for the local one: a piece whose solution quickens briefly is
+  judged by its average; casadi.integrator reports no step sequence.) Pieces
+  are capped in monitor points (memory), so a piece may be shorter than an
+  output interval.
 
 The crossing is located by Illinois regula falsi (to 1e-12 relative in time)
 on a bracket whose ends have the two signs; both limits are recorded, the reset
-is applied and the algebraic variables re-solved. Events closer together than
-the monitor can resolve stop the run with the partial result (a Zeno point).
+is applied and the algebraic variables re-solved. Re-integration for the search
+leaves out whole turns of periodic coordinates like every other integrator call,
+and a failure in it stops the run with an `IntegrationError` and the partial
+result.
+
+**Accumulation** is decided from the event sequence alone, never from the
+output grid: the events of one condition whose last three gaps shrink by a
+consistent ratio r < 1 predict the accumulation point T∞ = t + gap·r/(1 − r).
+When T∞ lies within ACCUMULATION_RESOLUTION time resolutions of the last event
+(`_time_resolution`: the error the tolerances allow in x and z carried into g,
+over the crossing speed |ġ| — below it the integration no longer fixes the
+event times, and a ball's bounces drown in its atol), or a gap is within that
+many location tolerances (1e-12·max(1, |t|) s), the run stops with the partial
+result (a Zeno point such as a bouncing ball coming to rest). Gaps that do not
+shrink (an elastic ball) never stop the run.
 """
 from __future__ import annotations
 
 import casadi as ca
 import numpy as np
 
+from ..caches import built
 from ..core.errors import IntegrationError
 from ..numeric import mapped_in
 from .events import Event
 from .initialize import solve_algebraic
+from .solvers import call, solver_message
 
 SPLIT_DEPTH = 3          # times a predicted but unconfirmed crossing is searched again on sub-intervals
 SX_SOLVE_MAX = 8         # algebraic variables up to which ż is solved symbolically in SX
+MAX_CASCADE = 8          # rounds of firings at one instant (A's reset makes B cross, ...) before accumulation
+ACCUMULATION_RESOLUTION = 10.0   # time resolutions of an event within which a predicted T∞ is a Zeno point
+GEOMETRIC_SPREAD = 0.1   # relative spread of the last two gap ratios for a geometric accumulation
+
+
+class EventSearchFailed(RuntimeError):
+    """Re-integration during the crossing search failed (the solver's message is the argument)."""
+
+    def __init__(self, t_a, t, message):
+        super().__init__(message)
+        self.t_a, self.t = t_a, t
 
 
 def zero_rates(dae) -> ca.Function:
@@ -51,15 +100,33 @@ def zero_rates(dae) -> ca.Function:
     ż comes from differentiating alg = 0 (index 1: ∂alg/∂z is regular). Inputs are held constant
     (their rate is not known to the DAE). Built in SX (fast to evaluate) unless the DAE needs MX or
     holds many algebraic variables (a symbolic solve would swell); cached on the selection."""
-    if "_zero_rates" not in dae.info:
-        if dae.z.numel() <= SX_SOLVE_MAX:
-            try:
-                dae.info["_zero_rates"] = _zero_rates(dae, ca.SX)
-            except (RuntimeError, NotImplementedError, TypeError):
-                pass
-        if "_zero_rates" not in dae.info:
-            dae.info["_zero_rates"] = _zero_rates(dae, ca.MX)
-    return dae.info["_zero_rates"]
+    return built(dae.info, "_zero_rates", lambda: _build_zero_rates(dae))
+
+
+def zero_sensitivity(dae) -> ca.Function:
+    """(t, x, z, u, p, d) -> [∂g/∂x, ∂g/∂z]: how the solver's errors in x and z move the zero functions."""
+    return built(dae.info, "_zero_sensitivity", lambda: _build_zero_sensitivity(dae))
+
+
+def _build_zero_sensitivity(dae):
+    sym = ca.SX if dae.z.numel() <= SX_SOLVE_MAX else ca.MX
+    try:
+        args = [sym.sym(n, v.shape) for n, v in zip("txzupd", (dae.t, dae.x, dae.z, dae.u, dae.p, dae.d))]
+        g = dae.zero(*args)
+    except (RuntimeError, NotImplementedError, TypeError):
+        args = [ca.MX.sym(n, v.shape) for n, v in zip("txzupd", (dae.t, dae.x, dae.z, dae.u, dae.p, dae.d))]
+        g = dae.zero(*args)
+    return ca.Function("zero_sensitivity", args, [ca.jacobian(g, args[1]), ca.jacobian(g, args[2])])
+
+
+def _build_zero_rates(dae):
+    """(under the build lock: building SX in two threads at once corrupts the heap)"""
+    if dae.z.numel() <= SX_SOLVE_MAX:
+        try:
+            return _zero_rates(dae, ca.SX)
+        except (RuntimeError, NotImplementedError, TypeError):
+            pass
+    return _zero_rates(dae, ca.MX)
 
 
 def _zero_rates(dae, sym):
@@ -106,8 +173,11 @@ def _cubic_extrema(g_a, d_a, g_b, d_b, h):
 def _allowed(dirs, before, after):
     """Which functions go from side `before` (±1, 0 unknown) to a value `after` across zero, in their
     direction: falling from + to ≤ 0, rising from − to ≥ 0."""
+    # from the boundary (side 0: resting on it with ġ = g̈ = 0) only a directional function crosses, by
+    # leaving it into its direction, as `_crossing_now` decides for one that leaves it with a rate; a
+    # "both" function leaving 0 has not changed sign
     return (((before > 0) & (after <= 0) & (dirs <= 0)) | ((before < 0) & (after >= 0) & (dirs >= 0))
-            | ((before == 0) & (after != 0) & ((dirs == 0) | (np.sign(after) == dirs))))
+            | ((before == 0) & (after != 0) & (dirs != 0) & (np.sign(after) == dirs)))
 
 
 def _predicted(dirs, before, s, ext, g_b):
@@ -129,6 +199,7 @@ class StateEvents:
     _armed = None            # side of each zero function (±1; 0 on the boundary and not moving)
     _armed_at = None         # the time they were set at
     _pending = None          # the bracket found by _first_crossing, for _handle_event
+    _resolution = ()         # (t, time resolution of each function's event there): `_time_resolution`
 
     def _rates(self, t, x, z):
         out = np.asarray(zero_rates(self.dae)(t, x, z, self._u_at(t), self.p, self.d)).ravel()
@@ -195,7 +266,11 @@ class StateEvents:
         s, ext = _cubic_extrema(G[:-1], D[:-1], G[1:], D[1:], h)
         hit = _predicted(dirs, side[:-1], s, ext, G[1:])
         for j in np.flatnonzero(np.any(hit, axis=1)):
-            found = self._bracket(pts[j], xs[j], zs[j], side[j], pts[j + 1], xs[j + 1], zs[j + 1])
+            try:
+                found = self._bracket(pts[j], xs[j], zs[j], side[j], pts[j + 1], xs[j + 1], zs[j + 1])
+            except EventSearchFailed as exc:
+                self._search_failed(exc, pts[j], xs[j], zs[j])
+                return int(j)                           # the result is kept up to there
             if found is not None:
                 self._pending = found
                 return int(j)
@@ -234,11 +309,38 @@ class StateEvents:
         return None
 
     def _advance_to(self, t_a, x_a, z_a, t):
+        """The state at t integrated from (t_a, x_a, z_a), without the whole turns of periodic
+        coordinates like every integrator call (`Run._turns`); raises EventSearchFailed."""
         F1 = self.integrators.get((1.0,))
-        out = F1(x0=x_a / self.xn, z0=z_a / self.zn if self.zn.size else np.zeros(0), p=self.pvec(t_a, t - t_a))
-        x = np.asarray(out["xf"]).ravel() * self.xn
-        z = np.asarray(out["zf"]).ravel() * self.zn if self.zn.size else np.zeros(0)
+        ox, oz = self._turns_of_state(t_a, x_a, z_a)
+        try:
+            out = call(F1, (x_a - ox) / self.xn, (z_a - oz) / self.zn if self.zn.size else np.zeros(0),
+                       self.pvec(t_a, t - t_a))
+        except RuntimeError as exc:
+            raise EventSearchFailed(t_a, t, str(exc)) from None
+        x = np.asarray(out["xf"]).ravel() * self.xn + ox
+        z = np.asarray(out["zf"]).ravel() * self.zn + oz if self.zn.size else np.zeros(0)
         return x, z
+
+    def _turns_of_state(self, t, x, z):
+        """`Run._turns` (which reads the run's current state) for the state (x, z)."""
+        saved = self.x, self.z
+        self.x, self.z = np.asarray(x, dtype=float), np.asarray(z, dtype=float)
+        try:
+            return self._turns(t)
+        finally:
+            self.x, self.z = saved
+
+    def _search_failed(self, exc, t_good, x_good, z_good):
+        """Re-integration in the crossing search failed: the run stops with an IntegrationError after
+        (t_good, x_good, z_good), its last good point (the result holds the solution up to there)."""
+        solver = solver_message(str(exc))
+        self.x, self.z = np.asarray(x_good, dtype=float).copy(), np.asarray(z_good, dtype=float).copy()
+        self.failure = IntegrationError(
+            f"integration failed between t = {exc.t_a:.6g} s and {exc.t:.6g} s while locating a state event; "
+            f"solver: {solver}. The result holds the solution up to t = {t_good:.6g} s",
+            t=float(t_good), step=float("nan"), worst="-", solver_message=solver)
+        self.stats["failed_at"] = float(t_good)
 
     def _locate(self, i, lo, f_lo, hi, f_hi, t_a, x_a, z_a, x_hi, z_hi):
         """Illinois regula falsi for function i on [lo, hi] (f_lo, f_hi of opposite sides), states
@@ -278,7 +380,11 @@ class StateEvents:
             f_lo = g_lo[i] if np.sign(g_lo[i]) == s_lo[i] else s_lo[i] * 1e-300
             if s_lo[i] == 0:
                 f_lo = -np.sign(g_hi[i]) * 1e-300
-            found = self._locate(i, lo, f_lo, hi, g_hi[i], lo, x_lo, z_lo, x_hi, z_hi)
+            try:
+                found = self._locate(i, lo, f_lo, hi, g_hi[i], lo, x_lo, z_lo, x_hi, z_hi)
+            except EventSearchFailed as exc:
+                self._search_failed(exc, t_a, x_a, z_a)
+                return t_a
             if best is None or found[0] < best[0]:
                 best = found
         t_e, x_e, z_e = best
@@ -291,17 +397,26 @@ class StateEvents:
 
     def _fire(self, t_e, x_e, z_e, fired):
         """Apply the transitions of `fired` at t_e (the left limit is recorded already), record the
-        right limit and re-arm. A function that fires again at the same instant
-        is an accumulation: the run stops."""
-        once = set()
-        while fired:
-            again = [h for h in fired if h in once]
-            if again:
-                self._accumulation(t_e, again[0], "its reset leaves the condition crossing, so it fires "
-                                                  "again at the same instant")
+        right limit and re-arm. Conditions the resets make cross fire at the same instant, in rounds
+        (event iteration); a round repeating an earlier one (the same functions from the same state:
+        nothing would ever change) or more than MAX_CASCADE rounds is an accumulation: the run stops."""
+        once, seen = set(), set()
+        dirs = np.array(self.dae.zero_directions)
+        for _ in range(MAX_CASCADE + 1):
+            if not fired:
                 return
+            key = (tuple(fired), (np.asarray(x_e, dtype=float) + 0.0).tobytes())   # + 0.0: −0.0 is 0.0
+            if key in seen or len(seen) == MAX_CASCADE:
+                why = ("its reset leaves the condition crossing, so it fires again at the same instant"
+                       if key in seen else f"more than {MAX_CASCADE} rounds of firings at the same instant")
+                self._accumulation(t_e, fired[0], why)
+                return
+            seen.add(key)
             once.update(fired)
-            g_left, gd_left, _ = self._rates(t_e, x_e, z_e)
+            g_left, gd_left, gdd_left = self._rates(t_e, x_e, z_e)
+            if not self._resolution or self._resolution[0] != t_e:
+                self._resolution = (t_e, self._time_resolution(t_e, x_e, z_e, gd_left))
+            before, _, _ = self._sides(t_e, (g_left, gd_left, gdd_left))
             near = np.zeros_like(g_left)
             near[fired] = 2 * np.maximum(np.abs(g_left[fired]), np.abs(gd_left[fired]) * self._tol_t(t_e))
             x_now, u_e = np.asarray(x_e, dtype=float), self._u_at(t_e)
@@ -317,8 +432,14 @@ class StateEvents:
             sides, on, by_rate = self._sides(t_e, self._rates(t_e, self.x, self.z), near)
             self._armed, self._armed_at = sides, t_e
             # one that fired and goes on across with speed has completed its crossing (a sensor);
-            # one held on its boundary by g̈ alone cannot leave it (a ball at rest): it fires again
-            fired = [h for h in self._crossing_now(sides, on) if not (h in once and by_rate[h])]
+            # one held on its boundary by g̈ alone cannot leave it (a ball at rest): it fires again;
+            # one the resets threw across to its other side, in its direction, crossed (a cascade)
+            now = set(self._crossing_now(sides, on))
+            others = np.ones(len(sides), dtype=bool)
+            others[fired] = False
+            jumped = others & ~on & _allowed(dirs, before, sides) & (before != 0)
+            fired = sorted({h for h in now if not (h in once and by_rate[h])} | set(np.flatnonzero(jumped).tolist()))
+        self._accumulation(t_e, fired[0], f"more than {MAX_CASCADE} rounds of firings at the same instant")
 
     def _accumulation(self, t, i, why):
         label = self.dae.zero_labels[i]
@@ -331,16 +452,48 @@ class StateEvents:
         self.x, self.z = np.asarray(x, dtype=float).copy(), np.asarray(z, dtype=float).copy()
         self._record(t)
 
-    def _event_density(self, density, out_interval):
-        """Monitor points close enough to resolve the spacing of recent state events (or stop at a Zeno point)."""
-        times = sorted({e.t for e in self.events if e.kind == "state"})   # simultaneous events count once
-        if len(times) < 2:
-            return density
-        gap = times[-1] - times[-2]
-        needed = 8.0 * out_interval / max(gap, 1e-300)
-        if needed > 4096:
-            cause = self.events[-1].cause
-            label = self.dae.zero_labels.index(cause) if cause in self.dae.zero_labels else 0
-            self._accumulation(times[-1], label, f"state events {gap:.3g} s apart, too close to resolve")
-            return density
-        return int(min(4096, max(density, 2 ** int(np.ceil(np.log2(max(needed, 1.0)))))))
+    def _time_resolution(self, t, x, z, gd):
+        """How precisely the integration fixes the time of each function's event at (t, x, z): the error
+        the tolerances allow in x and z, carried into g (∂g/∂x, ∂g/∂z), over the speed |ġ| at which g
+        crosses; never below the location tolerance."""
+        rtol, atol = self.settings[2], self.settings[3]
+        x, z = np.asarray(x, dtype=float), np.asarray(z, dtype=float)
+        jx, jz = zero_sensitivity(self.dae)(t, x, z, self._u_at(t), self.p, self.d)
+        dg = np.abs(np.asarray(jx)) @ (rtol * np.abs(x) + atol * self.xn)
+        if z.size:
+            dg = dg + np.abs(np.asarray(jz)) @ (rtol * np.abs(z) + atol * self.zn)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dt = np.asarray(dg).ravel() / np.abs(gd)
+        return np.maximum(np.nan_to_num(dt, nan=0.0, posinf=np.inf), self._tol_t(t))
+
+    def _check_accumulation(self):
+        """Stop the run at a Zeno point, judged from the events of the condition that fired last: its
+        last gap within ACCUMULATION_RESOLUTION location tolerances, or its last three gaps shrinking by
+        a consistent ratio r < 1 that puts the accumulation point T∞ = t + gap·r/(1 − r) within
+        ACCUMULATION_RESOLUTION time resolutions of its last event (`_time_resolution`: the events still
+        to come are closer than the integration fixes them). The output grid plays no part."""
+        if not self.events or self.events[-1].kind != "state":
+            return
+        cause = self.events[-1].cause
+        times = np.array(sorted({e.t for e in self.events if e.kind == "state" and e.cause == cause}))
+        if times.size < 2:
+            return
+        t = times[-1]
+        label = self.dae.zero_labels.index(cause) if cause in self.dae.zero_labels else 0
+        gaps = np.diff(times[-4:])
+        if gaps[-1] <= ACCUMULATION_RESOLUTION * self._tol_t(t):
+            self._accumulation(t, label, f"its events are {gaps[-1]:.3g} s apart, below what their location "
+                                         f"resolves")
+            return
+        if gaps.size < 3:
+            return
+        r1, r2 = gaps[1] / gaps[0], gaps[2] / gaps[1]
+        r = max(r1, r2)
+        if r < 1 and abs(r2 - r1) <= GEOMETRIC_SPREAD * r:
+            remaining = gaps[-1] * r / (1 - r)
+            resolution = self._resolution[1][label] if self._resolution and self._resolution[0] == t \
+                else self._tol_t(t)
+            if remaining <= ACCUMULATION_RESOLUTION * resolution:
+                self._accumulation(t, label, f"its events come ever closer (gaps shrinking by {r:.3g}), "
+                                             f"accumulating {remaining:.3g} s later, within what the "
+                                             f"integration resolves of their times ({resolution:.3g} s)")
