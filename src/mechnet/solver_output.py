@@ -38,6 +38,12 @@ class _ThreadStream:
         return getattr(self.fallback, name)
 
 
+def terminal():
+    """The real stderr (a progress bar must reach the user, not a run's record)."""
+    _install()
+    return sys.stderr.fallback
+
+
 def _install():
     with _install_lock:
         if not isinstance(sys.stderr, _ThreadStream):

@@ -266,53 +266,6 @@ class BranchCheck:
         return float(np.linalg.norm((landed - target)[shaping]) / (1.0 + np.linalg.norm(target[shaping])))
 
 
-TURN_LIMIT = 256.0    # rad: how far a periodic coordinate may wind within one integrator call (`whole_turns`)
-
-
-def whole_turns(dae, x, z, u, p, d) -> tuple[np.ndarray, np.ndarray]:
-    """2π for each state and algebraic variable in which `ode` and `alg` repeat after a whole turn (an
-    angle seen only through its sine and cosine), else 0. Why: a double holds an angle of 6000 rad
-    (1000 turns) to 1e-12 rad only, and the forces computed from it to ~1e-9 N (slider-crank at
-    3000 rpm); at a dead centre, where a pin force is only the weight, that noise exceeds the error
-    test of rtol = 1e-10 and IDAS fails. The simulator integrates these coordinates without their
-    whole turns, which the equations cannot tell apart. Checked numerically at two points near
-    (x, z) modulo 2π, cached on the DAE."""
-    cache = dae.info.setdefault("_whole_turns", {})
-    key = (tuple(dae.x_names), tuple(dae.z_names))
-    if key not in cache:
-        rng = np.random.default_rng(11)
-        nx, nz = len(x), len(z)
-        period = np.full(nx + nz, 2 * np.pi)
-        t = float(rng.uniform(0.0, 1.0))
-
-        def residual(y):
-            ode = np.asarray(dae.ode(t, y[:nx], y[nx:], u, p, d), dtype=float).ravel()
-            alg = np.asarray(dae.alg(t, y[:nx], y[nx:], u, p, d), dtype=float).ravel() if nz else np.zeros(0)
-            return np.concatenate([ode, alg])
-        for _ in range(2):
-            # near the start with whole turns taken out of every value: at thousands of turns the
-            # round-off alone would fail the comparison
-            y = np.remainder(np.concatenate([x, z]) + np.pi, 2 * np.pi) - np.pi + rng.uniform(-0.3, 0.3, nx + nz)
-            base = residual(y)
-            if not np.all(np.isfinite(base)):
-                period[:] = 0.0
-                break
-            for k in np.flatnonzero(period):
-                shifted = y.copy()
-                shifted[k] += 2 * np.pi
-                # entry by entry, to round-off: a weak spring on the angle must not pass for periodic
-                if np.any(np.abs(residual(shifted) - base) > 1e-10 * (1 + np.abs(base)) + 1e-13 * np.abs(base).max()):
-                    period[k] = 0.0
-        cache[key] = (period[:nx], period[nx:])
-    return cache[key]
-
-
-def turns_of(values, period) -> np.ndarray:
-    """The whole turns in `values` (0 where the period is 0): what the integrator leaves out."""
-    values = np.asarray(values, dtype=float)
-    return np.where(period > 0, np.round(values / np.where(period > 0, period, 1.0)), 0.0) * period
-
-
 def _turns(d, wrap) -> np.ndarray:
     """Whole periods in the differences d (0 where a coordinate has no period)."""
     return np.where(wrap > 0, np.round(d / np.where(wrap > 0, wrap, 1.0)), 0.0)

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .solvers import call, solver_messages_muted
+from .solvers import call
+from .winding import WINDING_POINTS
 
 SOLVER_STEPS_PER_CHECK = 16.0   # the state-selection monitor checks its quality about this often
 HORIZON_REACH = 2.0             # a piece aimed at a predicted switch reaches this many times as far,
@@ -64,8 +65,12 @@ class MonitoredPieces:
             first_end = t_cur + fraction * (grid[k + 1] - t_cur)
             starts = np.concatenate([[t_cur], grid[k + 1: k_end]])
             ends = np.concatenate([[first_end], grid[k + 2: k_end + 1]])
-            pts, is_output, span_at = _monitor_points(t_cur, starts, ends, density, spacing, grid[k + 1],
-                                                      grid_set, t_cur + reach)
+            # a periodic state winds at most TURN_LIMIT per piece, with points at most 1/WINDING_POINTS of
+            # that apart (`Run._segment`: the round-off of large angles, IDAS's initial-value search)
+            wind = self._winding_reach(t_cur)
+            pts, is_output, span_at = _monitor_points(t_cur, starts, ends, density,
+                                                      min(spacing, wind / WINDING_POINTS), grid[k + 1], grid_set,
+                                                      t_cur + min(reach, wind))
             ok, message, xs, zs = self._dense(pts, budgeted=per_piece > 1 or fraction < 1)
             if ok and self.dae.zero_labels and redone < 2:
                 # coarser than the solver's own steps: integrate again finer before searching crossings
@@ -235,10 +240,9 @@ class MonitoredPieces:
         F = self.integrators.get(tau, budget)
         self._failed_at = None
         try:
-            with solver_messages_muted(budget is not None):
-                ox, oz = self._turns(t0)
-                out = call(F, (self.x - ox) / self.xn, (self.z - oz) / self.zn if self.zn.size else np.zeros(0),
-                            self.pvec(t0, h))
+            ox, oz = self._turns(self.x, self.z)
+            out = call(F, (self.x - ox) / self.xn, (self.z - oz) / self.zn if self.zn.size else np.zeros(0),
+                       self.pvec(t0, h))
         except RuntimeError as exc:
             # after a failure CasADi's `tcur` is the last output time the solver reached (normalised; 0
             # when it failed before the first): the failure lies after it

@@ -17,7 +17,8 @@ import numpy as np
 
 from ..caches import BUILD_LOCK
 from ..core.errors import IntegrationError, MechnetError
-from .branch import TURN_LIMIT, Verdict, state_names, turns_of, whole_turns
+from ..solver_output import terminal
+from .branch import Verdict, state_names
 from .change_points import ChangePoints
 from .events import Event, chunk_bounds
 from .initialize import solve_algebraic
@@ -25,6 +26,7 @@ from .pieces import MonitoredPieces
 from .reselection import Reselection, SelectionMonitor
 from .solvers import Integrators, call, solver_message
 from .state_events import StateEvents
+from .winding import TURN_LIMIT, WINDING_POINTS, turns_of, whole_turns
 
 PROGRESS_CHUNKS = 20
 PROGRESS_MIN_POINTS = 1000
@@ -79,8 +81,7 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
             return
         cuts = sorted({int(np.searchsorted(grid, t)) for t in event_at}
                       | set(chunk_bounds(grid.size, PROGRESS_CHUNKS if grid.size >= PROGRESS_MIN_POINTS else 1)))
-        barred = any(0 < c < grid.size - 1 for c in cuts)     # the cuts for winding alone show no bar
-        cuts = sorted(set(cuts) | set(chunk_bounds(grid.size, self._winding_chunks(grid))))
+        barred = any(0 < c < grid.size - 1 for c in cuts)
         bounds = [0] + [c for c in cuts if 0 < c < grid.size - 1] + [grid.size - 1]
         bar, started = None, _time.perf_counter()
         t_cur, a = grid[0], 0
@@ -104,7 +105,7 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
                 expected = elapsed * (grid[-1] - grid[0]) / max(grid[b] - grid[0], 1e-300)
                 if progress or expected > PROGRESS_AFTER_SECONDS:
                     from tqdm import tqdm
-                    bar = tqdm(total=float(grid[-1] - grid[0]), unit="s", desc="simulate", leave=False,
+                    bar = tqdm(total=float(grid[-1] - grid[0]), unit="s", desc="simulate", leave=False, file=terminal(),
                                bar_format="{l_bar}{bar}| {n:.3g}/{total:.3g} s [{elapsed}<{remaining}]")
                     bar.update(float(grid[b] - grid[0]))
             elif bar is not None:
@@ -139,36 +140,69 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
     def _u_at(self, t):
         return self.plan.at(t)[:, 0]
 
-    def _turns(self, t):
-        """The whole turns of the coordinates the equations see only through sine and cosine
-        (`branch.whole_turns`): left out of each integrator call, so an angle of thousands of turns
+    def _turns(self, x, z):
+        """The whole turns in (x, z) of the coordinates the equations see only through sine and cosine
+        (`winding.whole_turns`): left out of each integrator call, so an angle of thousands of turns
         keeps the precision of one near zero (added back to the outputs)."""
-        px, pz = whole_turns(self.dae, self.x, self.z, self._u_at(t), self.p, self.d)
-        return turns_of(self.x, px), turns_of(self.z, pz)
+        px, pz = whole_turns(self.dae)
+        return turns_of(x, px), turns_of(z, pz)
 
-    def _winding_chunks(self, grid) -> int:
-        """Calls enough that no periodic state winds more than TURN_LIMIT in one (at its starting rate):
-        within a call the angle grows again, and with it the round-off in everything computed from it."""
-        px, _ = whole_turns(self.dae, self.x, self.z, self._u_at(grid[0]), self.p, self.d)
+    def _winding_reach(self, t) -> float:
+        """How long (s) the next integrator call from (t, self.x, self.z) may last: until a periodic
+        state winds TURN_LIMIT at its present rate (inf when none winds). Within a call the angle grows
+        again from its turn-reduced start, and with it the round-off in everything computed from it."""
+        px, _ = whole_turns(self.dae)
         if not px.any():
-            return 1
-        rate = np.abs(np.asarray(self.dae.ode(grid[0], self.x, self.z, self._u_at(grid[0]), self.p, self.d))).ravel()
-        wind = float(np.max(np.where(px > 0, rate, 0.0))) * (grid[-1] - grid[0])
-        return int(min(np.ceil(wind / TURN_LIMIT), grid.size // 2)) if np.isfinite(wind) else 1
+            return float("inf")
+        rate = np.asarray(self.dae.ode(t, self.x, self.z, self._u_at(t), self.p, self.d), dtype=float).ravel()
+        wind = float(np.max(np.abs(rate[px > 0])))
+        return TURN_LIMIT / wind if np.isfinite(wind) and wind > 0 else float("inf")
 
     def _inputs_at(self, ts):
         """The inputs at each of the times ts, one column per time."""
         return self.plan.at(ts)
 
     def _segment(self, points) -> bool:
-        ok, message = self._attempt(points)
-        return ok or self._recover(points, message)
+        """Integrate from points[0] (the state's time) over the output times points[1:], in calls that
+        wind no periodic state more than TURN_LIMIT (`_winding_reach`, measured before each call): a
+        call ends at the last output time within reach, or, when the next output lies beyond, at an
+        unrecorded time splitting the way there evenly; an interval longer than a WINDING_POINTS-th of
+        the reach gets unrecorded points between (IDAS's initial-value search scales its trial step to
+        the first interval: over a whole 0.8 s piece of the 3000-rpm crank it failed at rtol 1e-10).
+        False after a failure (`_recover`)."""
+        t_cur, i, n = points[0], 0, points.size - 1
+        reach = self._winding_reach(t_cur)
+        if t_cur + reach >= points[-1]:
+            ok, message = self._attempt(points)            # one call (a real-time integrator, reused)
+            return ok or self._recover(points, message)
+        while i < n:
+            j = max(i, int(np.searchsorted(points, t_cur + reach, side="right")) - 1)
+            if j > i:
+                call, keep = np.concatenate([[t_cur], points[i + 1: j + 1]]), np.ones(j - i, dtype=bool)
+            else:
+                gap = points[i + 1] - t_cur
+                pieces = int(np.ceil(gap / reach))
+                end = t_cur + gap / pieces if pieces > 1 else points[i + 1]
+                call, keep, j = np.array([t_cur, end]), np.array([pieces == 1]), i + (pieces == 1)
+            call, keep = _split_intervals(call, keep, reach / WINDING_POINTS)
+            ok, message = self._attempt(call, keep)
+            if not ok and not self._recover(call, message, keep):
+                return False
+            t_cur, i = call[-1], j
+            if i < n:
+                reach = self._winding_reach(t_cur)
+        return True
 
-    def _attempt(self, points) -> tuple[bool, str]:
-        """Integrate over `points` in one call; on success append the outputs and move the state."""
+    def _attempt(self, points, keep=None) -> tuple[bool, str]:
+        """Integrate over `points` in one call; on success append the outputs and move the state.
+        `keep`: which of points[1:] are recorded (None: all, in a real-time integrator kept for the
+        grid; else a normalised one, shared by calls of one pattern: `_segment`'s pieces)."""
         t0, h = points[0], points[-1] - points[0]
-        F = self.integrators.get_real(tuple(float(v) for v in points))
-        ox, oz = self._turns(t0)
+        if keep is None:
+            F = self.integrators.get_real(tuple(float(v) for v in points))
+        else:
+            F = self.integrators.get(tuple(float(v) for v in np.round((points[1:] - t0) / h, 12)))
+        ox, oz = self._turns(self.x, self.z)
         xs = (self.x - ox) / self.xn
         zs = (self.z - oz) / self.zn if self.zn.size else np.zeros(0)
         try:
@@ -178,11 +212,13 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn + ox
         zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn + oz) if self.zn.size \
             else np.zeros((xf.shape[0], 0))
-        self.T.extend(points[1:])
+        self.x, self.z = xf[-1].copy(), zf[-1].copy()
+        if keep is not None:
+            xf, zf = xf[keep], zf[keep]
+        self.T.extend(points[1:] if keep is None else points[1:][keep])
         self.X.extend(xf)
         self.Z.extend(zf)
         self.D.extend([self.dae] * len(xf))
-        self.x, self.z = xf[-1].copy(), zf[-1].copy()
         s = F.stats()
         for k in ("nsteps", "nfevals", "netfails"):
             self.stats[k] += int(s.get(k, 0))
@@ -197,14 +233,15 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
             self.Z[-1] = self.z.copy()
         self.events.append(Event(float(t), "time", cause))
 
-    def _recover(self, points, message):
+    def _recover(self, points, message, keep=None):
         """Keep what can be integrated before the failure, with few restarts, then close in on it.
 
         The failing segment is retried in halves (a successful piece keeps its
         length), so restarts stay O(log n); the failing output interval is then
         split in eight, three times over: the result ends within 1/512 of an
         output interval of the failure. True when every piece integrated after all (the
-        failed call had a step budget, or several output intervals at once).
+        failed call had a step budget, or several output intervals at once). `keep`: as in `_attempt`
+        (the state starts at points[0], recorded or not; on failure it is recorded where it stopped).
         """
         solver = solver_message(message)
         n = points.size - 1
@@ -212,14 +249,14 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
             # restart from algebraics consistent to Newton's precision, not just to the integrator's:
             # IDAS's own initial-condition search can fail on a point that is consistent only to rtol
             try:
-                self.z = solve_algebraic(self.dae, self.T[-1], self.x, self.z, self._u_at(self.T[-1]),
+                self.z = solve_algebraic(self.dae, points[0], self.x, self.z, self._u_at(points[0]),
                                          self.p, self.d)
             except MechnetError:
                 pass
         a, chunk = 0, max(1, n // 2)
         while a < n:
             b = min(a + chunk, n)
-            ok, text = self._attempt(points[a: b + 1])
+            ok, text = self._attempt(points[a: b + 1], None if keep is None else keep[a: b])
             if ok:
                 a = b
                 continue
@@ -230,6 +267,8 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         if a == n:
             return True                                # every piece integrated: no failure after all
         t_fail = points[min(a + 1, n)]
+        if self.T[-1] != points[a]:
+            self._record(points[a])               # an unrecorded piece end: the partial result ends there
         if a < n:
             lo, hi = points[a], points[a + 1]
             for _ in range(3):
@@ -252,6 +291,20 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
             t=float(t_good), step=step, worst=worst, solver_message=solver)
         self.stats["failed_at"] = float(t_good)
         return False
+
+
+def _split_intervals(points, keep, longest) -> tuple[np.ndarray, np.ndarray]:
+    """points with unrecorded ones splitting each interval longer than `longest` evenly, and keep with
+    False for them."""
+    ts, ks = [points[:1]], []
+    for a, b, k in zip(points[:-1], points[1:], keep):
+        m = int(np.ceil((b - a) / longest * (1 - 1e-12)))
+        if m > 1:
+            ts.append(a + (b - a) * np.arange(1, m) / m)
+            ks.append(np.zeros(m - 1, dtype=bool))
+        ts.append([b])
+        ks.append([k])
+    return np.concatenate(ts), np.concatenate(ks).astype(bool)
 
 
 def _worst_variable(dae, t, x, z, u, p, d, xn) -> str:

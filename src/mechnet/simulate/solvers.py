@@ -9,8 +9,6 @@ the same output pattern.
 """
 from __future__ import annotations
 
-import contextlib
-import io
 import re
 
 import casadi as ca
@@ -134,14 +132,6 @@ def jacobian_options(dae, plugin: str, extra: dict) -> dict:
                 choice = {"allow_forward": False}
         dae.info["_jacobian_options"] = choice
     return dae.info["_jacobian_options"]
-
-
-def solver_messages_muted(mute: bool):
-    """SUNDIALS's error messages reach Python's sys.stderr through CasADi, also when a piece runs out of
-    the step budget it was given on purpose (`_step_budget`): the run retries it shorter, and the
-    message only confused users (the demo's Cartesian pendulum printed six). Muted for those calls;
-    a real failure is reported by the run itself (IntegrationError)."""
-    return contextlib.redirect_stderr(io.StringIO()) if mute else contextlib.nullcontext()
 
 
 def call(F, xs, zs, p):

@@ -312,7 +312,7 @@ class StateEvents:
         """The state at t integrated from (t_a, x_a, z_a), without the whole turns of periodic
         coordinates like every integrator call (`Run._turns`); raises EventSearchFailed."""
         F1 = self.integrators.get((1.0,))
-        ox, oz = self._turns_of_state(t_a, x_a, z_a)
+        ox, oz = self._turns(np.asarray(x_a, dtype=float), np.asarray(z_a, dtype=float))
         try:
             out = call(F1, (x_a - ox) / self.xn, (z_a - oz) / self.zn if self.zn.size else np.zeros(0),
                        self.pvec(t_a, t - t_a))
@@ -321,15 +321,6 @@ class StateEvents:
         x = np.asarray(out["xf"]).ravel() * self.xn + ox
         z = np.asarray(out["zf"]).ravel() * self.zn + oz if self.zn.size else np.zeros(0)
         return x, z
-
-    def _turns_of_state(self, t, x, z):
-        """`Run._turns` (which reads the run's current state) for the state (x, z)."""
-        saved = self.x, self.z
-        self.x, self.z = np.asarray(x, dtype=float), np.asarray(z, dtype=float)
-        try:
-            return self._turns(t)
-        finally:
-            self.x, self.z = saved
 
     def _search_failed(self, exc, t_good, x_good, z_good):
         """Re-integration in the crossing search failed: the run stops with an IntegrationError after
