@@ -17,9 +17,16 @@ import numpy as np
 from .errors import ParameterError
 
 
+def not_a_number(value) -> bool:
+    """Values Python's float() would take but a user did not mean as a number: text ('2.5'), a truth
+    value (True is 1.0), a complex number. One rule for every numeric argument, so J='2.5' and
+    Torque(tau='3.0') are refused alike."""
+    return isinstance(value, (str, bytes, bool, np.bool_, complex, np.complexfloating))
+
+
 def finite_number(value, what: str, error=ParameterError) -> float:
     """`value` as a finite float, or `error` saying "<what> = <value> is not a number / not finite"."""
-    if isinstance(value, (str, bytes)):
+    if not_a_number(value):
         raise error(f"{what} = {value!r} is not a number")
     try:
         number = float(value)
@@ -112,6 +119,8 @@ class Param(Declaration):
             return self._validate_array(owner_label, value)
         raw = value.value if isinstance(value, Tunable) else value
         try:
+            if not_a_number(raw):
+                raise TypeError
             number = float(raw)
         except (TypeError, ValueError):
             raise ParameterError(f"{owner_label}: parameter {self.name} = {raw!r} is not a number "
@@ -133,6 +142,8 @@ class Param(Declaration):
             raise ParameterError(f"{what}: only scalar parameters can be tunable")
         shape = (self.shape, 1) if isinstance(self.shape, int) else tuple(self.shape)
         try:
+            if not_a_number(value) or any(not_a_number(v) for v in np.ravel(np.array(value, dtype=object))):
+                raise TypeError                       # '123' would become 123.0, (True, 0, 0) a vector
             arr = np.array(value, dtype=float)
         except (TypeError, ValueError):
             raise ParameterError(f"{what} = {value!r} is not a {_shape_text(shape)} of numbers "
