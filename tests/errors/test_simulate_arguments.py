@@ -1,6 +1,7 @@
 """simulate() arguments: every wrong value is a MechnetError naming it."""
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 import mechnet as mn
@@ -76,3 +77,56 @@ def test_expose_refuses_a_taken_name():
         sub.expose("flange", j.flange_b)
     with pytest.raises(mn.NameConflictError, match="'compile'"):
         sub.expose("compile", j.flange_b)
+
+
+# ---- the shared argument checks (core/arguments.py): each names the argument --------------------------
+
+@pytest.mark.parametrize("kwargs, text", [
+    (dict(params=["spring.c", 1.0]), r"simulate\(params=\.\.\.\) takes a mapping"),
+    (dict(inputs="tq.tau"), r"simulate\(inputs=\.\.\.\) takes a mapping"),
+    (dict(start=0.5), r"simulate\(start=\.\.\.\) takes a mapping"),
+    (dict(guess=[("j1.w", 0.0)]), r"simulate\(guess=\.\.\.\) takes a mapping"),
+    (dict(start={1: 0.5}), r"names must be dotted strings"),
+    (dict(max_steps=0), r"max_steps = 0 must be a whole number of at least 1"),
+    (dict(max_steps=-1), r"max_steps"),
+    (dict(max_steps=None), r"max_steps"),
+    (dict(max_steps=2.5), r"max_steps"),
+    (dict(max_steps="100"), r"max_steps"),
+    (dict(n_out=True), r"n_out"),
+    (dict(n_out=10 ** 8), r"n_out = 100000000 would need about .* GiB"),
+    (dict(progress="yes"), r"progress"),
+    (dict(steady_state=1), r"steady_state"),
+])
+def test_simulate_arguments_are_checked_in_one_place(cm, kwargs, text):
+    with pytest.raises(mn.MechnetError, match=text):
+        cm.simulate(1.0, **kwargs)
+
+
+def test_a_model_with_nothing_to_simulate_says_so():
+    from mechnet.components import rotational as rot
+    m = mn.Model("empty")
+    m.add(rot.Fixed(name="fixed"))
+    with pytest.raises(mn.MechnetError, match=r"model 'empty' has nothing to simulate"):
+        m.compile().simulate(1.0)
+
+
+def test_continue_from_a_result_of_another_model_is_refused(cm):
+    from models import cartesian_pendulum
+    other = cartesian_pendulum().compile().simulate(0.1)
+    with pytest.raises(mn.MechnetError, match=r"continue_from holds a result of another model"):
+        cm.simulate(1.0, continue_from=other)
+
+
+def test_result_access_by_name(cm, tmp_path):
+    res = cm.simulate(1.0, n_out=11)
+    with pytest.raises(mn.UnknownNameError, match=r"dotted name, such as res\["):
+        res[0]
+    with pytest.raises(mn.MechnetError, match=r"to_csv\(path\) = .* is a directory"):
+        res.to_csv(tmp_path)
+    with pytest.raises(mn.MechnetError, match=r"does not exist"):
+        res.to_csv(tmp_path / "missing" / "out.csv")
+    # one name is one name, not its characters; the plotted line is the oscillator's angle
+    fig = res.plot("j1.phi")
+    line = fig.axes[0].lines[0]
+    assert np.allclose(line.get_ydata(), res["j1.phi"])
+    assert abs(res["j1.phi"][-1] - 0.5 * np.cos(np.sqrt(1000.0))) < 1e-4     # closed form, rtol 1e-6

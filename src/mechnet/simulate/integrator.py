@@ -4,9 +4,12 @@ from __future__ import annotations
 import time as _time
 import warnings
 
+import casadi as ca
 import numpy as np
 
+from ..caches import BUILD_LOCK
 from ..core.errors import InitializationError, MechnetError, ParameterError, UnknownNameError
+from ..core.arguments import flag, mapping, whole_number
 from ..core.declarations import finite_number
 from ..numeric import mapped_in
 from ..solver_output import captured
@@ -44,6 +47,14 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     coordinates stay on their branch; the components' own start values do not apply.
     """
     dae = cm.dae
+    if _nothing_moves(dae):
+        raise MechnetError(f"model {cm.name!r} has nothing to simulate: no state or algebraic variable, and "
+                           f"nothing depends on time or an input (add an Inertia, a Mass or a Body)")
+    params, inputs = mapping(params, "simulate(params=...)"), mapping(inputs, "simulate(inputs=...)")
+    start, guess = mapping(start, "simulate(start=...)"), mapping(guess, "simulate(guess=...)")
+    max_steps = whole_number(max_steps, "max_steps", 1)
+    progress = flag(progress, "progress", allow_none=True)
+    steady_state = flag(steady_state, "steady_state")
     t_start, t_end = _check_time(t_start, "t_start"), _check_time(t_end, "t_end")
     rtol, atol = _check_tolerance(rtol, "rtol"), _check_tolerance(atol, "atol")
     if not RTOL_RANGE[0] <= rtol < RTOL_RANGE[1]:
@@ -53,6 +64,10 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     if continue_from is not None:
         if not isinstance(continue_from, Result):
             raise MechnetError(f"continue_from takes a Result, got {type(continue_from).__name__}")
+        foreign = [n for n in continue_from.state_names if n not in dae.observed_names]
+        if foreign:
+            raise MechnetError(f"continue_from holds a result of another model: model {cm.name!r} has no "
+                               f"{', '.join(foreign[:3])}")
         t_start = continue_from.final_time
         guess = {**continue_from.final_values, **(guess or {})}
         dae = _selection_with_states(cm, continue_from.state_names) or dae
@@ -69,9 +84,9 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     else:
         if not (np.isfinite(t_end) and np.isfinite(t_start) and t_end > t_start):
             raise MechnetError(f"t_end = {t_end} must be finite and greater than t_start = {t_start}")
-        if n_out is not None and (not isinstance(n_out, (int, np.integer)) or n_out < 2):
-            raise MechnetError(f"n_out = {n_out!r} must be a whole number of at least 2 output points")
-        grid = np.linspace(t_start, t_end, int(n_out or 501))
+        n_out = 501 if n_out is None else whole_number(n_out, "n_out (output points)", 2)
+        _check_result_size(n_out, len(dae.observed_names))
+        grid = np.linspace(t_start, t_end, n_out)
     plan = plan_inputs(dae, inputs, t_start, t_end, max(grid.size, 2001))
     p = _resolve_params(dae, params)
     d = np.array(dae.d_value, dtype=float)
@@ -154,6 +169,26 @@ def _selection_with_states(cm, names):
             except (MechnetError, RuntimeError):      # that selection cannot be compiled: the default one
                 return None
     return None
+
+
+def _nothing_moves(dae) -> bool:
+    """No state, no algebraic variable, and no observed value that time or an input could change (an empty
+    model, or one holding only a Fixed): a run would return the same numbers at every time."""
+    if dae.x.numel() or dae.z.numel():
+        return False
+    with BUILD_LOCK:
+        y = dae.observed(dae.t, dae.x, dae.z, dae.u, dae.p, dae.d)
+        return not ca.depends_on(y, ca.vertcat(dae.t, dae.u)) if y.numel() else True
+
+
+RESULT_BYTES_MAX = 4 * 2 ** 30     # a result larger than this is refused before anything is allocated
+
+
+def _check_result_size(n_out: int, n_names: int):
+    need = 8.0 * n_out * (n_names + 1) * 3            # observed values, states and algebraics, times
+    if need > RESULT_BYTES_MAX:
+        raise MechnetError(f"n_out = {n_out} would need about {need / 2 ** 30:.1f} GiB for the result "
+                           f"({n_names} names); ask for fewer points (the solver's steps do not depend on n_out)")
 
 
 def _check_time(value, what: str) -> float:

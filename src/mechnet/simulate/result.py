@@ -9,6 +9,7 @@ from typing import Optional
 
 import numpy as np
 
+from ..core.arguments import name_list, output_file
 from ..core.errors import UnknownNameError
 
 
@@ -73,6 +74,10 @@ class Result:
         return self.failure is None
 
     def __getitem__(self, name: str) -> np.ndarray:
+        if not isinstance(name, str):
+            raise UnknownNameError(f"results are read by dotted name, such as res[{self.names[0]!r}] "
+                                   f"(got {name!r}); res.t holds the times" if self.names else
+                                   f"results are read by dotted name (got {name!r})")
         if name not in self._column:
             raise unknown_name(name, self.names)
         if self._values is None and name in self.known:
@@ -102,10 +107,11 @@ class Result:
 
     def to_csv(self, path, names=None) -> None:
         """Write time and the named variables (default: every name) as CSV with a units row comment."""
-        names = list(names) if names else list(self.names)
+        names = name_list(names, "to_csv(names=...)") if names else list(self.names)
         for n in names:
             if n not in self._column:
                 raise unknown_name(n, self.names)
+        path = output_file(path, "to_csv(path)")
         data = np.column_stack([self.t] + [self[n] for n in names])
         header = ",".join(["time"] + names)
         units = "# units: " + ",".join(["s"] + [self.units.get(n, "1") for n in names])
@@ -117,7 +123,7 @@ class Result:
         """Plot named variables against time (default: the states); returns the matplotlib Figure."""
         import matplotlib.pyplot as plt
 
-        names = list(names) if names else list(self.state_names[:6])
+        names = name_list(names, "plot(names)") if names else list(self.state_names[:6])
         for n in names:
             if n not in self._column:
                 raise unknown_name(n, self.names)
