@@ -39,14 +39,16 @@ class _ThreadStream:
 
 
 def terminal():
-    """The real stderr (a progress bar must reach the user, not a run's record)."""
+    """The real stderr (a progress bar must reach the user, not a run's record); None where there is none."""
     _install()
-    return sys.stderr.fallback
+    return sys.stderr.fallback if isinstance(sys.stderr, _ThreadStream) else sys.stderr
 
 
 def _install():
     with _install_lock:
-        if not isinstance(sys.stderr, _ThreadStream):
+        # no stderr at all (pythonw, a daemon): nothing to wrap, and a run's text is only what CasADi
+        # writes while captured
+        if sys.stderr is not None and not isinstance(sys.stderr, _ThreadStream):
             sys.stderr = _ThreadStream(sys.stderr)
 
 

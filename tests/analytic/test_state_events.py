@@ -95,3 +95,16 @@ def test_reset_target_must_be_a_variable():
     m.add(Bad(name="b", h_start=1.0, v_start=0.0))
     with pytest.raises(mn.StructureError, match=r"b \(Bad\), event 1: reset targets"):
         m.compile()
+
+
+@pytest.mark.parametrize("condition", ["h", True, None])
+def test_a_condition_that_is_no_expression_is_named(condition):
+    # issue 16: When(condition='h') escaped as a raw CasADi overload error
+    class Bad(BouncingBall):
+        def events(self):
+            return [mn.When(condition, reset={self.v: -self.v})]
+
+    m = mn.Model("bad")
+    m.add(Bad(name="b", h_start=1.0, v_start=0.0))
+    with pytest.raises(mn.StructureError, match=r"b \(Bad\), events\(\): When: condition .* must be an expression"):
+        m.compile()

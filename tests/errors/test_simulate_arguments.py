@@ -130,3 +130,41 @@ def test_result_access_by_name(cm, tmp_path):
     line = fig.axes[0].lines[0]
     assert np.allclose(line.get_ydata(), res["j1.phi"])
     assert abs(res["j1.phi"][-1] - 0.5 * np.cos(np.sqrt(1000.0))) < 1e-4     # closed form, rtol 1e-6
+
+
+@pytest.fixture(scope="module")
+def driven():
+    """An inertia driven by an input torque: w(1) = (1/J)∫tau for any good input."""
+    from mechnet.components import rotational as rot
+    m = mn.Model("driven")
+    tq = m.add(rot.Torque(name="tq"))
+    j1 = m.add(rot.Inertia(name="j1", J=0.5, phi_start=0.0, w_start=0.0))
+    m.connect(tq.flange, j1.flange_a)
+    return m.compile()
+
+
+def _raises(t):
+    raise RuntimeError("sensor offline")
+
+
+@pytest.mark.parametrize("value, text", [
+    ("3.0", r"input 'tq.tau' = '3.0': give a number"),
+    (None, r"input 'tq.tau' = None: give a number"),
+    ({"t": 1}, r"input 'tq.tau' = \{'t': 1\}: give a number"),
+    (1 + 2j, r"input 'tq.tau' = \(1\+2j\): give a number"),
+    (_raises, r"input 'tq.tau': the callable raised RuntimeError at t = 0 s: sensor offline"),
+    (lambda: 1.0, r"input 'tq.tau': the callable raised TypeError at t = 0 s"),
+    (lambda t: "x", r"input 'tq.tau': the callable returned 'x' at t = 0 s"),
+    (([0.0, 1.0, 2.0], [1.0, 2.0]), r"needs at least two samples and as many values as times \(got 3 times, 2"),
+    (([0.0, float("nan"), 2.0], [1.0, 2.0, 3.0]), r"time\[1\] = nan is not finite"),
+    ((["0", "1"], [1.0, 2.0]), r"a table must hold numbers"),
+])
+def test_bad_inputs_are_named(driven, value, text):
+    with pytest.raises(mn.InputError, match=text):
+        driven.simulate(1.0, inputs={"tq.tau": value})
+
+
+def test_good_inputs_still_drive(driven):
+    # tau = 2 t: w(1) = (1/J) ∫0..1 2t dt = 1/J = 2 rad/s (linear in t: sampled exactly; rtol 1e-6)
+    res = driven.simulate(1.0, inputs={"tq.tau": lambda t: 2.0 * t})
+    assert abs(res["j1.w"][-1] - 2.0) < 1e-5

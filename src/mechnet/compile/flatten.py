@@ -89,7 +89,10 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
     whens = []
     for comp in components:
         label = f"{comp.path} ({type(comp).__name__})"
-        produced = comp.events() or []
+        try:
+            produced = comp.events() or []
+        except StructureError as exc:                  # a When refused where it was written: name the component
+            raise StructureError(f"{label}, events(): {exc}") from None
         if not isinstance(produced, (list, tuple)):
             raise StructureError(f"{label}: events() must return a list of When(...), got {produced!r}")
         for k, when in enumerate(produced):

@@ -12,6 +12,8 @@ from typing import Union
 
 import casadi as ca
 
+from .errors import StructureError
+
 Expr = Union[ca.SX, float, int]
 
 time = ca.SX.sym("time")
@@ -107,7 +109,17 @@ class When:
     direction: object = "both"
     doc: str = ""
 
+    def __post_init__(self):
+        """Checked where it is written (the component's events()), not deep in flatten as a CasADi error."""
+        if isinstance(self.condition, (str, bytes, bool)) or not isinstance(self.condition, (ca.SX, ca.MX, ca.DM,
+                                                                                              int, float)):
+            raise StructureError(f"When: condition {self.condition!r} must be an expression of the component's "
+                                 f"variables (such as self.h), not {type(self.condition).__name__}")
+        if self.reset is not None and not isinstance(self.reset, dict):
+            raise StructureError(f"When: reset takes a mapping {{state: new value}}, got "
+                                 f"{type(self.reset).__name__}")
+
     def sign(self) -> int:
-        if self.direction not in _DIRECTIONS:
+        if not isinstance(self.direction, (str, int)) or self.direction not in _DIRECTIONS:
             raise ValueError(f"When: direction {self.direction!r} must be 'falling', 'rising' or 'both'")
         return _DIRECTIONS[self.direction]

@@ -6,11 +6,14 @@ time of a bad value), and handed to the integrator as a linear interpolant.
 """
 from __future__ import annotations
 
+import numbers
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
+from ..core.declarations import finite_number, not_a_number
 from ..core.errors import InputError
 from .result import unknown_name
 
@@ -67,7 +70,7 @@ def plan_inputs(dae, given: dict | None, t_start: float, t_end: float, n_samples
             times = np.linspace(t_start, t_end, max(n_samples, 2))
             values = np.empty_like(times)
             for i, t in enumerate(times):
-                out = np.asarray(value(float(t)), dtype=float)
+                out = _sample(name, value, float(t))
                 if out.size != 1:
                     raise InputError(f"input {name!r}: the callable returned shape {out.shape} at t = {t:g} s; "
                                      f"it must return one number")
@@ -76,14 +79,11 @@ def plan_inputs(dae, given: dict | None, t_start: float, t_end: float, n_samples
                                      f"t = {t:g} s; values must be finite")
                 values[i] = float(out.reshape(()))
             varying[k] = (times, values)
-        elif np.isscalar(value) or np.ndim(value) == 0:
-            v = float(value)
-            if not np.isfinite(v):
-                raise InputError(f"input {name!r} = {v}: must be finite")
-            constant[k] = v
-        elif isinstance(value, str):
-            raise InputError(f"input {name!r} = {value!r}: give a number, a callable f(t), a (times, values) "
+        elif value is None or not_a_number(value) or isinstance(value, Mapping):
+            raise InputError(f"input {name!r} = {value!r:.60}: give a number, a callable f(t), a (times, values) "
                              f"pair or an N×2 array")
+        elif isinstance(value, numbers.Real) or (isinstance(value, np.ndarray) and value.ndim == 0):
+            constant[k] = finite_number(value, f"input {name!r}", InputError)
         else:
             times, values = _table(name, value)
             # held constant outside the table, for the integrator as for the results (CasADi's
@@ -98,17 +98,53 @@ def plan_inputs(dae, given: dict | None, t_start: float, t_end: float, n_samples
     return InputPlan(constant, varying)
 
 
+def _sample(name, f, t) -> np.ndarray:
+    """f(t) as an array; a callable that fails or takes no time argument is named with the time."""
+    try:
+        out = f(t)
+    except Exception as exc:                        # noqa: BLE001 - any user error, named and chained
+        raise InputError(f"input {name!r}: the callable raised {type(exc).__name__} at t = {t:g} s: {exc} "
+                         f"(it is called as f(t) with the time in seconds)") from exc
+    if out is None or not_a_number(out):
+        raise InputError(f"input {name!r}: the callable returned {out!r:.40} at t = {t:g} s; it must return "
+                         f"one number")
+    try:
+        return np.asarray(out, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"input {name!r}: the callable returned {out!r:.40} at t = {t:g} s; it must return "
+                         f"one number") from None
+
+
 def _table(name, value):
+    try:
+        return _table_arrays(name, value)
+    except InputError:
+        raise
+    except (TypeError, ValueError):
+        raise InputError(f"input {name!r}: a table must hold numbers: give (times, values) or an N×2 array "
+                         f"of [time, value] rows") from None
+
+
+def _table_arrays(name, value):
     if isinstance(value, tuple) and len(value) == 2:
+        if any(not_a_number(v) for part in value for v in np.ravel(np.array(part, dtype=object))):
+            raise TypeError
         times, values = (np.asarray(v, dtype=float).ravel() for v in value)
     else:
+        if any(not_a_number(v) for v in np.ravel(np.array(value, dtype=object))):
+            raise TypeError
         arr = np.asarray(value, dtype=float)
         if arr.ndim != 2 or arr.shape[1] != 2:
             raise InputError(f"input {name!r}: give a number, a callable f(t), a (times, values) pair or an "
                              f"N×2 array of [time, value] rows (got shape {arr.shape})")
         times, values = arr[:, 0], arr[:, 1]
     if times.size < 2 or times.size != values.size:
-        raise InputError(f"input {name!r}: needs at least two samples and as many values as times")
+        raise InputError(f"input {name!r}: needs at least two samples and as many values as times "
+                         f"(got {times.size} times, {values.size} values)")
+    nonfinite = np.flatnonzero(~np.isfinite(times))
+    if nonfinite.size:
+        k = int(nonfinite[0])
+        raise InputError(f"input {name!r}: time[{k}] = {times[k]} is not finite")
     bad = np.flatnonzero(np.diff(times) <= 0)
     if bad.size:
         k = int(bad[0])

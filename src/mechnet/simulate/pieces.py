@@ -72,11 +72,16 @@ class MonitoredPieces:
                                                       min(spacing, wind / WINDING_POINTS), grid[k + 1], grid_set,
                                                       t_cur + min(reach, wind))
             ok, message, xs, zs = self._dense(pts, budgeted=per_piece > 1 or fraction < 1)
-            if ok and self.dae.zero_labels and redone < 2:
-                # coarser than the solver's own steps: integrate again finer before searching crossings
-                h_solver = self._mean_step
-                if h_solver > 0 and np.max(np.diff(pts)) > MONITOR_REDO * h_solver:
-                    spacing, redone = MONITOR_STEPS * h_solver, redone + 1
+            if ok and self.dae.zero_labels and redone < 3:
+                # coarser than the solver's own steps, or than the zero functions' own rates allow:
+                # integrate again finer before searching crossings
+                h_solver, widest = self._mean_step, np.max(np.diff(pts))
+                allowed = self._zero_spacing(pts, xs, zs)
+                if h_solver > 0 and widest > MONITOR_REDO * h_solver:
+                    spacing, redone = min(MONITOR_STEPS * h_solver, allowed), redone + 1
+                    continue
+                if widest > 1.5 * allowed:
+                    spacing, redone = allowed, redone + 1
                     continue
             redone = 0
             t_next = self._step_over_from(t_cur, grid) if not ok else None
@@ -191,7 +196,7 @@ class MonitoredPieces:
                 # of the run and aim at the straight-line horizon, so little is integrated past each
                 # (the Cartesian pendulum's 40 switches took 78 % more steps with fast growth)
                 quiet = all(e.kind == "time" for e in self.events)
-                reach = HORIZON_REACH if quiet else 1.0
+                factor = HORIZON_REACH if quiet else 1.0        # of the straight-line horizon (below)
                 per_piece = min(longest, PIECE_GROWTH * per_piece) if quiet else \
                     min(max(1, n_int // 5), 2 * per_piece)
                 if self.monitor is not None and stop >= 2:
@@ -204,16 +209,16 @@ class MonitoredPieces:
                     slope = (ratios[stop] - ratios[stop - 1]) / max(pts[stop] - pts[stop - 1], 1e-300)
                     switch_level = 0.9 * self.monitor.HYSTERESIS * self.monitor.last_best
                     if slope < 0 and ratios[stop] > switch_level:
-                        horizon = reach * (ratios[stop] - switch_level) / -slope
+                        horizon = factor * (ratios[stop] - switch_level) / -slope
                         per_piece = int(min(per_piece, max(1, horizon // (grid[1] - grid[0]))))
                 ahead = self._fold_ahead(pts[: stop + 1])
                 if ahead is not None and ahead > t_cur:
                     # a change point ahead: end the next piece half-way to it (an integrator running
                     # into the rank loss crawls to its step limit before it fails)
-                    reach = 0.5 * (ahead - t_cur)
-                    per_piece = int(min(per_piece, max(1, reach // (grid[1] - grid[0]))))
-                    if k + 1 < grid.size and reach < grid[k + 1] - t_cur:
-                        fraction = max(reach / (grid[k + 1] - t_cur), 1e-3)
+                    halfway = 0.5 * (ahead - t_cur)
+                    per_piece = int(min(per_piece, max(1, halfway // (grid[1] - grid[0]))))
+                    if k + 1 < grid.size and halfway < grid[k + 1] - t_cur:
+                        fraction = max(halfway / (grid[k + 1] - t_cur), 1e-3)
             steps = np.abs(np.diff(ratios[: stop + 1])) if stop > 0 else np.zeros(1)
             worst = float(np.max(steps)) if steps.size else 0.0
             if worst > 0.05 and density < 256:

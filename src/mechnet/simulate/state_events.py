@@ -151,9 +151,10 @@ def _cubic_extrema(g_a, d_a, g_b, d_b, h):
     """Times (in (0, h)) and values of the extrema of the cubic Hermite interpolant, per function.
 
     Returns arrays (n, 2) of times and values, NaN where there is none."""
-    # p(s) = g_a + d_a s + c2 s² + c3 s³ on s ∈ [0, h]
-    c2 = (3 * (g_b - g_a) / h - 2 * d_a - d_b) / h
-    c3 = (2 * (g_a - g_b) / h + d_a + d_b) / h ** 2
+    # p(s) = g_a + d_a s + c2 s² + c3 s³ on s ∈ [0, h] (an interval of length 0 has no extremum: NaN)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c2 = (3 * (g_b - g_a) / h - 2 * d_a - d_b) / h
+        c3 = (2 * (g_a - g_b) / h + d_a + d_b) / h ** 2
     # p'(s) = d_a + 2 c2 s + 3 c3 s² = 0
     A, B, C = 3 * c3, 2 * c2, d_a
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -237,6 +238,26 @@ class StateEvents:
         if now:
             self._fire(t, self.x, self.z, now)
         return self.failure is None
+
+    def _zero_spacing(self, pts, xs, zs) -> float:
+        """The widest monitor spacing (s) the zero functions' own rates allow on this piece: a function
+        that changes faster than the states the solver resolves (sin φ of a flywheel winding many turns
+        per solver step) would fit whole excursions between points spaced by solver steps alone. Each
+        function may move by at most half its size on the piece per interval, to first and second
+        order: Δ·|ġ| ≤ s/2 and Δ²·|g̈| ≤ s/4, s = max |g| on the piece (inf when no function moves)."""
+        n = pts.size
+        rates = mapped_in(self.dae.info.setdefault("_zero_rate_maps", {}), zero_rates(self.dae), n)
+        R = rates(pts.reshape(1, -1), xs.T, zs.T, self._inputs_at(pts), np.tile(self.p.reshape(-1, 1), n),
+                  np.tile(self.d.reshape(-1, 1), n))[0]
+        m = len(self.dae.zero_labels)
+        G, D, A = np.abs(R[:m]), np.abs(R[m: 2 * m]), np.abs(R[2 * m:])
+        size = np.max(G, axis=1, keepdims=True)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            first = np.where(D > 0, 0.5 * size / D, np.inf)
+            second = np.where(A > 0, np.sqrt(0.25 * size / A), np.inf)
+        allowed = np.minimum(first, second)
+        allowed = allowed[np.isfinite(allowed) & (allowed > 0)]
+        return float(np.min(allowed)) if allowed.size else np.inf
 
     def _first_crossing(self, pts, xs, zs, limit):
         """Index of the last monitor point before the first event among pts (up to `limit`), or None.
