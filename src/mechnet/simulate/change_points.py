@@ -37,7 +37,7 @@ class ChangePoints:
 
     def _conditioning(self, ts, xs, zs, unit_rows=True):
         """σ_min/σ_max of the algebraic block ∂alg/∂z at each point, columns per unit of each variable's
-        size there (its nominal at least) and rows scaled to unit norm. The selection quality cannot see a change point: it
+        largest size over the points (its nominal at least) and rows scaled to unit norm. The selection quality cannot see a change point: it
         scales each constraint row by its norm, and at a fold a whole row vanishes. The row-scaled
         ratio can miss the same thing (a parallelogram's closure along its flat line when the
         rocker-coupler angle is the state): `unit_rows=False` keeps the rows as they are, for the
@@ -47,10 +47,11 @@ class ChangePoints:
         U = self._inputs_at(ts)
         J = f(np.reshape(ts, (1, -1)), np.asarray(xs).T, np.asarray(zs).T, U,
               np.tile(self.p.reshape(-1, 1), n), np.tile(self.d.reshape(-1, 1), n))[0]
-        # per unit of each variable's size at that point (its nominal at least): a pin force of 6000 N at
-        # 3000 rpm measured per newton made a regular slider-crank look singular four times a turn
-        size = np.maximum(np.abs(np.asarray(zs, dtype=float).reshape(n, nz)), self.zn)
-        J = J.reshape(nz, n, nz).transpose(1, 0, 2) * size[:, None, :]
+        # per unit of each variable's size over these points (its nominal at least): a pin force of 6000 N
+        # at 3000 rpm measured per newton made a regular slider-crank look singular four times a turn, and
+        # its size at each point alone did where a force component crosses zero
+        size = np.maximum(np.max(np.abs(np.asarray(zs, dtype=float).reshape(n, nz)), axis=0), self.zn)
+        J = J.reshape(nz, n, nz).transpose(1, 0, 2) * size
         if unit_rows:
             J = J / np.maximum(np.linalg.norm(J, axis=2, keepdims=True), 1e-300)
         s = np.linalg.svd(J, compute_uv=False)
