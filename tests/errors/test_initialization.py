@@ -198,3 +198,15 @@ def test_the_loop_at_steady_state_starts_at_its_equilibrium():
     cm = _loop_model()
     res = cm.simulate(0.1, n_out=3, steady_state=True, guess={"l.x": 0.3, "l.z": 0.2})
     assert abs(res["l.x"][0]) < 1e-12 and abs(res["l.z"][0]) < 1e-12
+
+
+def test_steady_state_where_none_exists_names_the_derivative():
+    # issue 16: a free inertia under a constant torque accelerates at tau/J forever; the message listed an
+    # empty group. der(j1.w) = 2 N·m / 1 kg·m² whatever the state: no steady state
+    from mechnet.components import rotational as rot
+    m = mn.Model("spin")
+    j1 = m.add(rot.Inertia(name="j1", J=1.0))
+    tq = m.add(rot.ConstantTorque(name="tq", tau_constant=2.0))
+    m.connect(tq.flange, j1.flange_a)
+    with pytest.raises(mn.InitializationError, match=r"no steady state exists: der\(j1\.w\) is a constant"):
+        m.compile().simulate(1.0, steady_state=True)

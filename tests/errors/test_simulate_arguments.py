@@ -168,3 +168,18 @@ def test_good_inputs_still_drive(driven):
     # tau = 2 t: w(1) = (1/J) ∫0..1 2t dt = 1/J = 2 rad/s (linear in t: sampled exactly; rtol 1e-6)
     res = driven.simulate(1.0, inputs={"tq.tau": lambda t: 2.0 * t})
     assert abs(res["j1.w"][-1] - 2.0) < 1e-5
+
+
+def test_a_failure_from_the_arguments_says_which_to_change(cm):
+    # issue 16: max_steps = 1 failed naming j1.w; the oscillator's run needs thousands of steps
+    with pytest.warns(mn.IntegrationWarning):
+        res = cm.simulate(1.0, max_steps=1)
+    assert not res.success
+    assert "max_steps = 1 ran out: raise max_steps" in str(res.failure)
+
+
+@pytest.mark.parametrize("times, values", [(["0", "1"], [1.0, 2.0]), ([0.0, 1.0], [None, 2.0]), ("01", "12")])
+def test_a_table_must_hold_numbers(times, values):
+    from mechnet.components.signals import Table
+    with pytest.raises(mn.ParameterError, match=r"Table: (times|values) must be numbers"):
+        Table(times, values)

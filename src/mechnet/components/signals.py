@@ -13,7 +13,7 @@ import math
 import casadi as ca
 import numpy as np
 
-from ..core.declarations import finite_number
+from ..core.declarations import finite_number, not_a_number
 from ..core.errors import ParameterError
 
 
@@ -152,6 +152,10 @@ class Table(Signal):
     smoothness = 1
 
     def __init__(self, times, values):
+        for what, given in (("times", times), ("values", values)):
+            entries = np.ravel(np.array(given, dtype=object))
+            if not_a_number(given) or any(not_a_number(v) or v is None for v in entries):
+                raise ParameterError(f"Table: {what} must be numbers, got {given!r:.60}")
         t = np.asarray(times, dtype=float).ravel()
         y = np.asarray(values, dtype=float).ravel()
         if t.size < 2 or t.size != y.size:

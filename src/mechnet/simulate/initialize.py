@@ -283,6 +283,11 @@ def _too_many(conditions, unmatched, graph, dae):
 
     lines = []
     for k in unmatched:
+        if graph.degree(("r", k)) == 0 and k < len(conditions) and conditions[k][1] is None:
+            # der(x) = 0 with a derivative that depends on no unknown: a constant that cannot vanish
+            raise InitializationError(
+                f"no steady state exists: {conditions[k][0]} is a constant of the model (a constant force or "
+                f"torque, a prescribed rate), so steady_state=True cannot make it 0; give start values instead")
         part = nx.node_connected_component(graph, ("r", k))
         rows = sorted(r for side, r in part if side == "r")
         fixed = [row_label(r) for r in rows if r < len(conditions)]

@@ -226,6 +226,17 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         self.stats["hlast"] = float(s.get("hlast", float("nan"))) * h
         return True, ""
 
+    def _advice(self, solver: str) -> str:
+        """Which argument of simulate() to change, when the solver's code says it was the arguments (too
+        many steps, tolerances too tight) rather than the model."""
+        _, _, rtol, atol, max_steps = self.settings
+        if solver.endswith("TOO_MUCH_WORK"):
+            return (f" (the step budget max_steps = {max_steps} ran out: raise max_steps, shorten t_end, or "
+                    f"loosen rtol = {rtol:g})")
+        if solver.endswith("TOO_MUCH_ACC"):
+            return f" (rtol = {rtol:g}, atol = {atol:g} ask more than double precision gives: loosen them)"
+        return ""
+
     def _restart_at(self, t, cause):
         """A time event: states are continuous; algebraic variables are re-solved at the new time."""
         if self.zn.size:
@@ -287,8 +298,8 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         worst = _worst_variable(self.dae, t_good, self.x, self.z, self._u_at(t_good), self.p, self.d, self.xn)
         self.failure = IntegrationError(
             f"integration failed between t = {t_good:.6g} s and {t_fail:.6g} s (last step size {step:.3g} s); "
-            f"worst variable: {worst}; solver: {solver}. The result holds the solution up to t = {t_good:.6g} s",
-            t=float(t_good), step=step, worst=worst, solver_message=solver)
+            f"worst variable: {worst}; solver: {solver}{self._advice(solver)}. The result holds the solution "
+            f"up to t = {t_good:.6g} s", t=float(t_good), step=step, worst=worst, solver_message=solver)
         self.stats["failed_at"] = float(t_good)
         return False
 
