@@ -21,6 +21,7 @@ import casadi as ca
 import numpy as np
 
 from .caches import builds_symbols
+from .core.arguments import mapping
 from .core.declarations import finite_number
 from .core.errors import InitializationError, InputError, MechnetError, UnknownNameError
 from .simulate.initialize import solve_algebraic
@@ -172,8 +173,8 @@ def linearize(cm, x_op=None, u_op=None, *, t: Optional[float] = None, params: Op
         raise MechnetError(f"linearize: x_op must be a dict of state values, a TrimPoint or a Result, "
                            f"not {type(x_op).__name__}")
     t = finite_number(t_given if t is None else t, "linearize(t=...)", InputError)
-    u_given.update(u_op or {})
-    p_given.update(params or {})
+    u_given.update(mapping(u_op, "linearize(u_op=...)"))
+    p_given.update(mapping(params, "linearize(params=...)"))
 
     x = _state_values(dae, x_given, "linearize(x_op=...)")
     u = _input_values(dae, u_given, "linearize(u_op=...)")
@@ -255,7 +256,8 @@ def trim(cm, *, inputs: Optional[dict] = None, fixed: Optional[dict] = None, fre
     Raises InitializationError naming the largest residual if Newton fails.
     """
     dae = cm.dae
-    inputs, fixed, guess = dict(inputs or {}), dict(fixed or {}), dict(guess or {})
+    inputs, fixed = mapping(inputs, "trim(inputs=...)"), mapping(fixed, "trim(fixed=...)")
+    guess = mapping(guess, "trim(guess=...)")
     t = finite_number(t, "trim(t=...)", InputError)
     free_inputs = tuple(free_inputs)
     nx_, nz = dae.x.numel(), dae.z.numel()

@@ -8,6 +8,7 @@ import time as _time
 from dataclasses import dataclass, field
 
 from ..caches import builds_symbols
+from ..core.errors import MechnetError
 from .alias import SimplifyOptions, simplify
 from .casadi_dae import EmitOptions, emit
 from .flatten import FlattenOptions, flatten
@@ -31,6 +32,9 @@ def compile_model(model, options: CompileOptions | None = None):
     from .compiled import CompiledModel
 
     options = options or CompileOptions()
+    if not isinstance(options, CompileOptions):
+        raise MechnetError(f"compile(options=...) takes a mechnet.compile.CompileOptions, got "
+                           f"{type(options).__name__} {options!r:.40}")
     timings = {}
     t0 = _time.perf_counter()
     flat = flatten(model, options.flatten)

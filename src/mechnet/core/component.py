@@ -15,8 +15,8 @@ from typing import Optional
 import casadi as ca
 import numpy as np
 
-from .declarations import (Across, Declaration, finite_number, Flag, Input, Param, Port, Through, Tunable,
-                           Variable)
+from .declarations import (Across, Declaration, finite_number, Flag, Input, not_a_number, Param, Port, Through,
+                           Tunable, Variable)
 from .equation import Eq, register, time
 from .errors import ConnectError, ParameterError, StructureError
 
@@ -181,6 +181,8 @@ class Component:
         if value is None:
             return None
         try:
+            if not_a_number(value) or any(not_a_number(v) for v in np.ravel(np.array(value, dtype=object))):
+                raise TypeError                       # True as 1.0, '0.5' as 0.5: not what a user meant
             arr = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
         except (TypeError, ValueError):
             raise ParameterError(f"{label}: {key}_{what} = {value!r} is not a number") from None

@@ -10,7 +10,7 @@ import numpy as np
 from ..caches import BUILD_LOCK
 from ..core.errors import InitializationError, MechnetError, ParameterError, UnknownNameError
 from ..core.arguments import flag, mapping, whole_number
-from ..core.declarations import finite_number
+from ..core.declarations import finite_number, not_a_number
 from ..numeric import mapped_in
 from ..solver_output import captured
 from .branch import selections, state_names
@@ -75,7 +75,12 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     if t_out is not None:
         if n_out is not None:
             raise MechnetError("give either n_out or t_out, not both")
-        grid = np.asarray(t_out, dtype=float)
+        try:
+            if not_a_number(t_out) or any(not_a_number(v) for v in np.ravel(np.array(t_out, dtype=object))):
+                raise TypeError
+            grid = np.asarray(t_out, dtype=float)
+        except (TypeError, ValueError):
+            raise MechnetError(f"t_out = {t_out!r:.60} must be an increasing sequence of times (s)") from None
         if grid.ndim != 1 or grid.size < 2 or np.any(np.diff(grid) <= 0) or not np.all(np.isfinite(grid)):
             raise MechnetError("t_out must be an increasing sequence of at least two finite times")
         if abs(t_end - grid[-1]) > 1e-12 * max(1.0, abs(t_end)):
