@@ -1,20 +1,24 @@
 """The `mechnet` command: run the example scenes, or simulate one scene file.
 
     mechnet --version
-    mechnet demo [--out DIR] [--only NAME]
+    mechnet demo [--out DIR] [--only NAME] [--dir DIR] [--debug]
     mechnet simulate FILE [--t-end T] [--rtol R] [--atol A] [--method M] [--n-out N] [--plot PNG] [--csv CSV]
+                          [--debug]
 
 Errors a user can cause (MechnetError) print one `error: ...` line and exit
-with status 2, without a traceback: the message already names the culprit.
+with status 2, without a traceback: the message already names the culprit
+(for a scene file's own code, `<file>:<line>: ...`). `--debug` adds the traceback.
 """
 from __future__ import annotations
 
 import argparse
 import sys
 import time
+import traceback
 from pathlib import Path
 from typing import Optional, Sequence
 
+from mechnet.core.arguments import output_file
 from mechnet.core.errors import MechnetError, SceneError
 
 METHODS = ("auto", "idas", "cvodes-bdf", "cvodes-adams")
@@ -34,6 +38,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return args.run(args)
     except MechnetError as exc:
         print(f"error: {exc}", file=sys.stderr)
+        if args.debug:
+            traceback.print_exception(exc)
         return 2
 
 
@@ -44,16 +50,19 @@ def _parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="store_true", help="print the version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--debug", action="store_true", help="print the traceback of an error too")
 
-    demo = sub.add_parser("demo", help="build and simulate every example scene, write PNG plots")
+    demo = sub.add_parser("demo", parents=[common],
+                          help="build and simulate every example scene, write PNG plots")
     demo.add_argument("--out", type=Path, default=Path("mechnet-demo"),
                       help="folder for the plots (default: ./mechnet-demo)")
-    demo.add_argument("--only", metavar="NAME", help="run only the scene examples/NAME.py")
-    demo.add_argument("--examples", type=Path, default=None, metavar="DIR",
-                      help="folder of scene files (default: the repository's examples/)")
+    demo.add_argument("--only", metavar="NAME", help="run only the scene NAME.py")
+    demo.add_argument("--dir", "--examples", dest="dir", type=Path, default=None, metavar="DIR",
+                      help="run the scene files in DIR (default: mechnet's own examples)")
     demo.set_defaults(run=_demo)
 
-    sim = sub.add_parser("simulate", help="compile and simulate one scene file")
+    sim = sub.add_parser("simulate", parents=[common], help="compile and simulate one scene file")
     sim.add_argument("file", type=Path, metavar="FILE", help="scene file defining build()")
     sim.add_argument("--t-end", type=float, default=None, help="end time in s (default: the scene's t_end)")
     sim.add_argument("--rtol", type=float, default=None, help="relative tolerance (default 1e-6)")
@@ -82,24 +91,60 @@ def _use_agg() -> None:
 
 
 def _examples_dir(override: Optional[Path]) -> Path:
-    folder = override if override is not None else Path(__file__).resolve().parents[2] / "examples"
-    if not folder.is_dir():
+    """DIR when given, else mechnet's own examples/: those of the checkout this package is installed from.
+
+    Only a src/ layout checkout (src/mechnet next to pyproject.toml) counts, so a folder that merely
+    happens to sit near an installed package is never run.
+    """
+    if override is not None:
+        if not override.is_dir():
+            raise SceneError(f"--dir {override}: no such folder of scene files")
+        return override
+    package = Path(__file__).resolve().parent
+    root = package.parents[1]
+    folder = root / "examples"
+    if package.parent.name != "src" or not (root / "pyproject.toml").is_file() or not folder.is_dir():
         raise SceneError(
-            f"examples folder {folder} not found; `mechnet demo` runs from a source checkout "
-            f"(pip install -e .) or pass --examples DIR"
+            "this mechnet install has no example scenes (they come with the source checkout: "
+            "pip install -e .); pass --dir DIR to run the scene files in DIR"
         )
     return folder
+
+
+def _report(scene, res, png: Optional[Path]) -> None:
+    """Print max |name - reference| per name of the scene's reference(t); plot its `plot` names
+    (default: the first states) to `png`, the reference overlaid."""
+    reference = scene.reference_errors(res)
+    for name, (_, error) in reference.items():
+        print(f"  max |{name} - reference| = {error:.3e}")
+    if png is None:
+        return
+    import matplotlib.pyplot as plt
+
+    names = list(scene.plot) or list(res.state_names[:6])
+    fig = res.plot(names)
+    ax = fig.axes[0]
+    for name, line in zip(names, list(ax.lines)):        # res.plot draws one line per name, in order
+        if name in reference:
+            ax.plot(res.t, reference[name][0], "--", color=line.get_color(), linewidth=3.0, alpha=0.4,
+                    zorder=line.get_zorder() - 0.1, label=f"{name} reference")
+    if any(name in reference for name in names):
+        ax.legend(loc="best", fontsize="small")
+    try:
+        fig.savefig(png)
+    except OSError as exc:
+        raise MechnetError(f"cannot write the plot {png}: {exc.strerror or exc}") from exc
+    finally:
+        plt.close(fig)
+    print(f"wrote {png}")
 
 
 def _demo(args: argparse.Namespace) -> int:
     """Run every scene; one failing scene is reported and does not stop the others."""
     _use_agg()
-    import matplotlib.pyplot as plt
-    import numpy as np
-
     from mechnet.scene import load_scene
 
-    folder = _examples_dir(args.examples)
+    folder = _examples_dir(args.dir)
     files = sorted(p for p in folder.glob("*.py") if not p.name.startswith("_"))
     if args.only is not None:
         files = [p for p in files if p.stem == args.only]
@@ -110,6 +155,8 @@ def _demo(args: argparse.Namespace) -> int:
         raise SceneError(f"no scene files (*.py) in {folder}")
 
     out: Path = args.out
+    if out.exists() and not out.is_dir():
+        raise SceneError(f"--out {out} is a file; give a folder for the plots")
     out.mkdir(parents=True, exist_ok=True)
     failed: list[str] = []
     t_total = time.perf_counter()
@@ -124,25 +171,18 @@ def _demo(args: argparse.Namespace) -> int:
             cm = model.compile()
             t_compile = time.perf_counter() - t0
             print(cm.summary())
+            scene.check_plot(cm.names)
             t0 = time.perf_counter()
             res = cm.simulate(scene.t_end)
             t_sim = time.perf_counter() - t0
             print(f"build + compile {t_compile:.3f} s, simulate to t = {scene.t_end:g} s {t_sim:.3f} s")
-            if scene.reference is not None:
-                reference = scene.reference(np.asarray(res.t))
-                for name, expected in reference.items():
-                    # a chaotic scene's reference is NaN where the comparison stops meaning anything
-                    error = np.nanmax(np.abs(np.asarray(res[name]) - np.asarray(expected, dtype=float)))
-                    print(f"  max |{name} - reference| = {error:.3e}")
-            fig = res.plot(list(scene.plot) or None)
-            png = out / f"{scene.name}.png"
-            fig.savefig(png)
-            plt.close(fig)
-            print(f"wrote {png}")
+            _report(scene, res, out / f"{scene.name}.png")
         except Exception as exc:  # noqa: BLE001 - report and go on with the next scene
             failed.append(path.stem)
             kind = "" if isinstance(exc, MechnetError) else f"{type(exc).__name__}: "
             print(f"error: {path.stem}: {kind}{exc}", file=sys.stderr)
+            if args.debug:
+                traceback.print_exception(exc)
     print(f"\n{len(files) - len(failed)} of {len(files)} scenes ran in "
           f"{time.perf_counter() - t_total:.2f} s; plots in {out}")
     if failed:
@@ -154,13 +194,19 @@ def _demo(args: argparse.Namespace) -> int:
 def _simulate(args: argparse.Namespace) -> int:
     from mechnet.scene import load_scene
 
+    # Output paths are checked before the (possibly long) run, not when it is over.
+    for option, path in (("--csv", args.csv), ("--plot", args.plot)):
+        if path is not None:
+            output_file(path, option, SceneError)
     if args.plot is not None:
         _use_agg()
+        _check_plot_format(args.plot)
     scene = load_scene(args.file)
     t0 = time.perf_counter()
     cm = scene.model().compile()
     t_compile = time.perf_counter() - t0
     print(cm.summary())
+    scene.check_plot(cm.names)        # a typo in `plot` is found now, --plot or not
 
     # Only options the user gave are passed on, so the simulator's own defaults apply.
     options = {key: value for key, value in
@@ -182,18 +228,24 @@ def _simulate(args: argparse.Namespace) -> int:
     for event in res.events:
         print(f"  event at t = {event.t:g} s ({event.kind}): {event.cause}")
     if args.csv is not None:
-        args.csv.parent.mkdir(parents=True, exist_ok=True)
-        res.to_csv(args.csv)
+        try:
+            res.to_csv(args.csv)
+        except OSError as exc:
+            raise MechnetError(f"cannot write --csv {args.csv}: {exc.strerror or exc}") from exc
         print(f"wrote {args.csv}")
-
-    if args.plot is not None:
-        import matplotlib.pyplot as plt
-        fig = res.plot(list(scene.plot) or None)
-        args.plot.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(args.plot)
-        plt.close(fig)
-        print(f"wrote {args.plot}")
+    _report(scene, res, args.plot)
     return 0
+
+
+def _check_plot_format(png: Path) -> None:
+    """matplotlib picks the format from the suffix: refuse one it cannot write before the run."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    formats = FigureCanvasBase.get_supported_filetypes()
+    suffix = png.suffix.lstrip(".").lower()
+    if suffix not in formats:
+        raise SceneError(f"--plot {png}: matplotlib cannot write {'.' + suffix if suffix else 'a file without a suffix'}"
+                         f"; use one of {', '.join('.' + f for f in sorted(formats))}")
 
 
 if __name__ == "__main__":

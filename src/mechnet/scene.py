@@ -14,10 +14,12 @@ with the ordinary API and can also be run on its own. It defines
 """
 from __future__ import annotations
 
+import ast
 import importlib.util
 import itertools
 import math
 import sys
+import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional
@@ -49,13 +51,84 @@ class Scene:
         """Call ``build()`` and check that it gave a Model, so errors name the scene file."""
         from mechnet.core.model import Model  # lazy: loading a scene must not need the compiler
 
-        model = self.build()
+        try:
+            model = self.build()
+        except (Exception, SystemExit) as exc:  # the scene's own code: say where in the file
+            raise scene_failure(self.path, exc, "build()", self.build) from exc
         if not isinstance(model, Model):
             raise SceneError(
                 f"scene file {self.path}: build() returned {type(model).__name__}, "
                 f"expected a mechnet.Model (did build() forget to `return m`?)"
             )
         return model
+
+    def check_plot(self, known) -> None:
+        """Refuse a `plot` name that `known` (the compiled model's names) lacks, naming the `plot` line."""
+        from mechnet.simulate.result import unknown_name
+
+        known = set(known)
+        for name in self.plot:
+            if name not in known:
+                raise SceneError(f"{self.path}:{_assignment_line(self.path, 'plot')}: "
+                                 f"in `plot`: {unknown_name(name, known)}")
+
+    def reference_errors(self, res) -> dict:
+        """reference(t) on the result's grid: {name: (reference values, max |res[name] - reference|)}.
+
+        Empty without a reference. NaN in a reference (a chaotic scene past its horizon) is skipped.
+        """
+        import numpy as np
+
+        if self.reference is None:
+            return {}
+        try:
+            reference = dict(self.reference(np.asarray(res.t)))
+        except (Exception, SystemExit) as exc:
+            raise scene_failure(self.path, exc, "reference(t)", self.reference) from exc
+        errors = {}
+        for name, expected in reference.items():
+            if name not in res:
+                from mechnet.simulate.result import unknown_name
+                raise SceneError(f"{self.path}:{self.reference.__code__.co_firstlineno}: reference(t) "
+                                 f"returns {unknown_name(name, res.names)}")
+            expected = np.broadcast_to(np.asarray(expected, dtype=float), np.shape(res[name]))
+            errors[name] = (expected, float(np.nanmax(np.abs(np.asarray(res[name]) - expected))))
+        return errors
+
+
+def scene_failure(path: Path, exc: BaseException, doing: str, function=None) -> SceneError:
+    """An exception raised by a scene file's own code as one SceneError: `<file>:<line>: <cause>`.
+
+    The line is the last traceback frame inside the scene file (a SyntaxError's own line); when the
+    failure never entered the file (build() called with a missing argument), the line defining
+    `function`. The original exception stays the __cause__, with its full traceback.
+    """
+    line = getattr(exc, "lineno", None) if isinstance(exc, SyntaxError) else None
+    for frame in traceback.extract_tb(exc.__traceback__):
+        if frame.filename and Path(frame.filename).resolve() == path:
+            line = frame.lineno
+    if line is None and function is not None:
+        line = getattr(getattr(function, "__code__", None), "co_firstlineno", None)
+    if isinstance(exc, SystemExit):
+        cause = f"called sys.exit({exc.code!r})"
+    elif isinstance(exc, MechnetError):
+        cause = f"failed: {exc}"
+    else:
+        cause = f"failed: {type(exc).__name__}: {exc}"
+    where = f"{path}:{line}" if line is not None else f"{path}"
+    return SceneError(f"{where}: {doing} {cause}")
+
+
+def _assignment_line(path: Path, name: str):
+    """Line of the last top-level `name = ...` in the scene file ('?' if it cannot be found)."""
+    try:
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+    except (OSError, SyntaxError, ValueError):
+        return "?"
+    lines = [node.lineno for node in tree.body if isinstance(node, (ast.Assign, ast.AnnAssign))
+             and any(isinstance(t, ast.Name) and t.id == name
+                     for t in (node.targets if isinstance(node, ast.Assign) else [node.target]))]
+    return lines[-1] if lines else "?"
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -66,6 +139,8 @@ def load_scene(path: str | Path) -> Scene:
     ``t_end``, ``plot`` or ``reference``).
     """
     path = Path(path).expanduser().resolve()
+    if path.is_dir():
+        raise SceneError(f"scene file {path} is a directory; give a .py file that defines build()")
     if not path.is_file():
         raise SceneError(f"scene file {path} does not exist")
 
@@ -79,14 +154,9 @@ def load_scene(path: str | Path) -> Scene:
     sys.modules[module_name] = module
     try:
         spec.loader.exec_module(module)
-    except MechnetError as exc:
+    except (Exception, SystemExit) as exc:
         sys.modules.pop(module_name, None)
-        raise SceneError(f"scene file {path} failed while importing: {exc}") from exc
-    except Exception as exc:
-        sys.modules.pop(module_name, None)
-        raise SceneError(
-            f"scene file {path} failed while importing: {type(exc).__name__}: {exc}"
-        ) from exc
+        raise scene_failure(path, exc, "importing the scene file") from exc
 
     build = getattr(module, "build", None)
     if build is None:
