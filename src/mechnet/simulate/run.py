@@ -31,6 +31,7 @@ from .winding import TURN_LIMIT, WINDING_POINTS, turns_of, whole_turns
 PROGRESS_CHUNKS = 20
 PROGRESS_MIN_POINTS = 1000
 PROGRESS_AFTER_SECONDS = 1.0
+ATOL_RESOLVED = 1e-14            # (per unit of nominal) an atol below this is named when a run fails
 
 
 class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
@@ -230,6 +231,9 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         """Which argument of simulate() to change, when the solver's code says it was the arguments (too
         many steps, tolerances too tight) rather than the model."""
         _, _, rtol, atol, max_steps = self.settings
+        if atol < ATOL_RESOLVED and solver.endswith(("TOO_MUCH_WORK", "TOO_MUCH_ACC", "ERR_FAIL")):
+            return (f" (atol = {atol:g} asks for an absolute error no double resolves near zero, where a "
+                    f"variable's error is held to atol alone: raise atol)")
         if solver.endswith("TOO_MUCH_WORK"):
             return (f" (the step budget max_steps = {max_steps} ran out: raise max_steps, shorten t_end, or "
                     f"loosen rtol = {rtol:g})")
