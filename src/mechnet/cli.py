@@ -194,9 +194,16 @@ def _demo(args: argparse.Namespace) -> int:
 def _simulate(args: argparse.Namespace) -> int:
     from mechnet.scene import load_scene
 
-    # Output paths are checked before the (possibly long) run, not when it is over.
+    # Output paths are checked before the (possibly long) run, not when it is over; a missing folder is
+    # made, as `demo --out` makes its own
     for option, path in (("--csv", args.csv), ("--plot", args.plot)):
         if path is not None:
+            folder = Path(path).expanduser().absolute().parent
+            if not folder.exists():
+                try:
+                    folder.mkdir(parents=True)
+                except OSError as exc:
+                    raise SceneError(f"{option} = {str(path)!r}: cannot make the folder {str(folder)!r} ({exc})") from None
             output_file(path, option, SceneError)
     if args.plot is not None:
         _use_agg()

@@ -3,6 +3,7 @@ import re
 import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mechnet.cli import main
@@ -157,7 +158,6 @@ def test_debug_keeps_the_traceback(tmp_path, capsys):
     ("--csv", lambda tmp: tmp),                                 # a directory
     ("--plot", lambda tmp: tmp),
     ("--csv", lambda tmp: tmp / "a_file.txt" / "out.csv"),     # under a file: cannot be written
-    ("--plot", lambda tmp: tmp / "missing" / "out.png"),
     ("--plot", lambda tmp: tmp / "out.notaformat"),
 ])
 def test_output_paths_are_refused_before_the_run(tmp_path, capsys, option, target):
@@ -168,6 +168,14 @@ def test_output_paths_are_refused_before_the_run(tmp_path, capsys, option, targe
     assert captured.out == ""                     # refused before compiling, let alone simulating
     lines = captured.err.splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"error: {option}") and str(path) in lines[0]
+
+
+def test_a_missing_output_folder_is_made(tmp_path, capsys):
+    # as before issue 16 (and as demo --out does): --csv into a new folder writes the oscillator's run there
+    csv = tmp_path / "new" / "deeper" / "out.csv"
+    assert main(["simulate", str(OSCILLATOR), "--csv", str(csv)]) == 0
+    data = np.loadtxt(csv, delimiter=",", comments="#", skiprows=2)
+    assert data.shape[0] > 10 and data[0, 0] == 0.0
 
 
 def test_a_directory_as_the_scene_file(tmp_path, capsys):

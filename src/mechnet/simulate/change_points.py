@@ -49,8 +49,10 @@ class ChangePoints:
               np.tile(self.p.reshape(-1, 1), n), np.tile(self.d.reshape(-1, 1), n))[0]
         # per unit of each variable's size over these points (its nominal at least): a pin force of 6000 N
         # at 3000 rpm measured per newton made a regular slider-crank look singular four times a turn, and
-        # its size at each point alone did where a force component crosses zero
+        # its size at each point alone did where a force component crosses zero. Angles keep their
+        # nominal: an angle's value says nothing of its scale (a parallelogram wound 10⁴ turns missed its fold)
         size = np.maximum(np.max(np.abs(np.asarray(zs, dtype=float).reshape(n, nz)), axis=0), self.zn)
+        size = np.where(_angles(self.dae), self.zn, size)
         J = J.reshape(nz, n, nz).transpose(1, 0, 2) * size
         if unit_rows:
             J = J / np.maximum(np.linalg.norm(J, axis=2, keepdims=True), 1e-300)
@@ -220,6 +222,11 @@ class ChangePoints:
         self.x, self.z = x_b.copy(), z_b.copy()
         if np.any(grid == t_b):
             self._record(t_b)                  # a landing on an output time: nothing after records it
+
+
+def _angles(dae) -> np.ndarray:
+    """Which algebraic variables are angles (unit rad)."""
+    return np.array([dae.units.get(n) == "rad" for n in dae.z_names], dtype=bool)
 
 
 def _fold_time(ts, conds):
