@@ -203,7 +203,8 @@ def _simulate(args: argparse.Namespace) -> int:
                 try:
                     folder.mkdir(parents=True)
                 except OSError as exc:
-                    raise SceneError(f"{option} = {str(path)!r}: cannot make the folder {str(folder)!r} ({exc})") from None
+                    raise SceneError(f"{option} = {str(path)!r}: cannot make the folder {str(folder)!r} "
+                                     f"({exc})") from None
             output_file(path, option, SceneError)
     if args.plot is not None:
         _use_agg()

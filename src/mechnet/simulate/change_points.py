@@ -37,8 +37,8 @@ class ChangePoints:
 
     def _conditioning(self, ts, xs, zs, unit_rows=True):
         """σ_min/σ_max of the algebraic block ∂alg/∂z at each point, columns per unit of each variable's
-        largest size over the points (its nominal at least) and rows scaled to unit norm. The selection quality cannot see a change point: it
-        scales each constraint row by its norm, and at a fold a whole row vanishes. The row-scaled
+        largest size over the points (its nominal at least; angles: their nominal) and rows scaled to unit
+        norm. The selection quality cannot see a change point: it scales each constraint row by its norm, and at a fold a whole row vanishes. The row-scaled
         ratio can miss the same thing (a parallelogram's closure along its flat line when the
         rocker-coupler angle is the state): `unit_rows=False` keeps the rows as they are, for the
         check after a failure."""
