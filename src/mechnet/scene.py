@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Optional
 
+from mechnet.core.arguments import name_list
 from mechnet.core.errors import MechnetError, SceneError
 
 __all__ = ["Scene", "load_scene"]
@@ -201,16 +202,7 @@ def _plot(module, path: Path) -> tuple[str, ...]:
     plot = getattr(module, "plot", None)
     if plot is None:
         return ()
-    if isinstance(plot, str):
-        plot = [plot]
-    try:
-        names = tuple(plot)
-    except TypeError:
-        raise SceneError(f"scene file {path}: `plot` must be a list of dotted names") from None
-    bad = [n for n in names if not isinstance(n, str)]
-    if bad:
-        raise SceneError(f"scene file {path}: `plot` entries must be dotted names (str), got {bad!r}")
-    return names
+    return tuple(name_list(plot, f"scene file {path}: `plot`", SceneError))
 
 
 def _description(module) -> str:
