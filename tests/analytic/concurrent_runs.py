@@ -12,19 +12,13 @@ import numpy as np
 import mechnet as mn
 import models
 from mechnet.components import multibody as mb
-from mechnet.components import rotational as rot
 
 THREADS, RUNS = 4, 25
 
 
 def oscillator():
-    m = mn.Model("oscillator")
-    fixed = m.add(rot.Fixed(name="fixed"))
-    spring = m.add(rot.Spring(name="spring", c=mn.tunable(100.0)))
-    j1 = m.add(rot.Inertia(name="j1", J=0.1, phi_start=0.5, w_start=0.0))
-    m.connect(fixed.flange, spring.flange_a)
-    m.connect(spring.flange_b, j1.flange_a)
-    return m.compile(), [{"params": {"spring.c": 100.0 + 4.0 * k}} for k in range(RUNS)], "j1.phi"
+    cm = models.oscillator(c=mn.tunable(100.0)).compile()
+    return cm, [{"params": {"spring.c": 100.0 + 4.0 * k}} for k in range(RUNS)], "j1.phi"
 
 
 def cartesian_pendulum():

@@ -32,13 +32,7 @@ def test_a_vector_parameter_must_hold_numbers(bad):
 
 @pytest.mark.parametrize("bad", ["50", True])
 def test_a_tunable_parameter_given_per_run_must_be_a_number(bad):
-    m = mn.Model("osc")
-    fixed = m.add(rot.Fixed(name="fixed"))
-    spring = m.add(rot.Spring(name="spring", c=mn.tunable(100.0)))
-    j1 = m.add(rot.Inertia(name="j1", J=0.1, phi_start=0.5, w_start=0.0))
-    m.connect(fixed.flange, spring.flange_a)
-    m.connect(spring.flange_b, j1.flange_a)
-    cm = m.compile()
+    cm = oscillator(c=mn.tunable(100.0)).compile()
     with pytest.raises(mn.ParameterError, match=r"spring\.c.*is not a number"):
         cm.simulate(1.0, params={"spring.c": bad})
 

@@ -79,7 +79,7 @@ def test_whole_turns_left_out_only_where_the_equations_repeat():
     fixed = m.add(rot.Fixed(name="fixed"))
     spring = m.add(rot.Spring(name="spring", c=c))
     held = m.add(rot.Inertia(name="held", J=J, phi_start=phi0, w_start=0.0))
-    free = m.add(rot.Inertia(name="free", J=J, phi_start=phi0, w_start=w0))
+    m.add(rot.Inertia(name="free", J=J, phi_start=phi0, w_start=w0))
     m.connect(fixed.flange, spring.flange_a)
     m.connect(spring.flange_b, held.flange_a)
     cm = m.compile()
