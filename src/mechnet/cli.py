@@ -20,8 +20,7 @@ from typing import Optional, Sequence
 
 from mechnet.core.arguments import output_file
 from mechnet.core.errors import MechnetError, SceneError
-
-METHODS = ("auto", "idas", "cvodes-bdf", "cvodes-adams")
+from mechnet.simulate.solvers import METHODS
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
@@ -113,7 +112,7 @@ def _examples_dir(override: Optional[Path]) -> Path:
 
 def _report(scene, res, png: Optional[Path]) -> None:
     """Print max |name - reference| per name of the scene's reference(t); plot its `plot` names
-    (default: the first states) to `png`, the reference overlaid."""
+    (default: the first states) to `png` with `res.plot`, titled with the scene, the reference overlaid."""
     reference = scene.reference_errors(res)
     for name, (_, error) in reference.items():
         print(f"  max |{name} - reference| = {error:.3e}")
@@ -122,14 +121,8 @@ def _report(scene, res, png: Optional[Path]) -> None:
     import matplotlib.pyplot as plt
 
     names = list(scene.plot) or list(res.state_names[:6])
-    fig = res.plot(names)
-    ax = fig.axes[0]
-    for name, line in zip(names, list(ax.lines)):        # res.plot draws one line per name, in order
-        if name in reference:
-            ax.plot(res.t, reference[name][0], "--", color=line.get_color(), linewidth=3.0, alpha=0.4,
-                    zorder=line.get_zorder() - 0.1, label=f"{name} reference")
-    if any(name in reference for name in names):
-        ax.legend(loc="best", fontsize="small")
+    fig = res.plot(names, title=scene.title,
+                   reference={name: values for name, (values, _) in reference.items() if name in names})
     try:
         fig.savefig(png)
     except OSError as exc:

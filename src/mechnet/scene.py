@@ -63,6 +63,11 @@ class Scene:
             )
         return model
 
+    @property
+    def title(self) -> str:
+        """What the scene's plots are titled: its description, else its name (the PNG's name already)."""
+        return self.description or self.name
+
     def check_plot(self, known) -> None:
         """Refuse a `plot` name that `known` (the compiled model's names) lacks, naming the `plot` line."""
         from mechnet.simulate.result import unknown_name

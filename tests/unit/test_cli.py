@@ -91,8 +91,8 @@ def test_simulate_writes_csv_and_lists_time_events(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "event at t = 0.5 s (time)" in text
     lines = out.read_text().splitlines()
-    assert lines[0].startswith("# units: s,") and lines[1].startswith("time,")
-    assert "motor.w" in lines[1].split(",")
+    assert lines[0].startswith("time [s],")                   # units in the header: read_csv takes it as is
+    assert "motor.w [rad/s]" in lines[0].split(",")
 
 
 # --- issue 16, the command line: one `error: <file>:<line>: ...` line, status 2, traceback only with --debug
@@ -174,7 +174,7 @@ def test_a_missing_output_folder_is_made(tmp_path, capsys):
     # as before issue 16 (and as demo --out does): --csv into a new folder writes the oscillator's run there
     csv = tmp_path / "new" / "deeper" / "out.csv"
     assert main(["simulate", str(OSCILLATOR), "--csv", str(csv)]) == 0
-    data = np.loadtxt(csv, delimiter=",", comments="#", skiprows=2)
+    data = np.loadtxt(csv, delimiter=",", skiprows=1)
     assert data.shape[0] > 10 and data[0, 0] == 0.0
 
 
@@ -202,11 +202,12 @@ def test_simulate_overlays_the_reference_and_prints_its_error(tmp_path, capsys, 
             return {"j.phi": 0.5 * np.cos(np.sqrt(C / J) * t)}
     """))
     import matplotlib.figure
-    labels = []
+    labels, titles = [], []
     save = matplotlib.figure.Figure.savefig
 
     def spy(fig, *args, **kwargs):
         labels.extend(line.get_label() for line in fig.axes[0].lines)
+        titles.append((fig.get_suptitle(), [a.get_ylabel() for a in fig.axes]))
         return save(fig, *args, **kwargs)
 
     monkeypatch.setattr(matplotlib.figure.Figure, "savefig", spy)
@@ -216,7 +217,8 @@ def test_simulate_overlays_the_reference_and_prints_its_error(tmp_path, capsys, 
     errors = re.findall(r"max \|j\.phi - reference\| = (\S+)", out)
     assert len(errors) == 1 and float(errors[0]) < 1e-4, out
     assert png.stat().st_size > 0
-    assert labels == ["j.phi [rad]", "j.phi reference"]        # the scene's `plot` names, each overlaid
+    assert labels == ["j.phi", "j.phi reference"]              # the scene's `plot` names, each overlaid
+    assert titles == [("scene", ["rad"])]                       # drawn by res.plot: titled with the scene
 
 
 def test_demo_runs_the_package_examples_whatever_the_current_folder(tmp_path, capsys, monkeypatch):

@@ -100,10 +100,11 @@ class CompiledModel:
         return simulate(self, t_end, **kwargs)
 
     def summary(self) -> str:
+        from ..simulate.solvers import choose_method
         d = self.dae
         flat, simp = self.stages["flat"], self.stages["simplified"]
         al, st = self.stages["aliases"], self.stages["structure"]
-        kind = "explicit ODE (CVODES by default)" if d.is_ode else "index-1 DAE (IDAS)"
+        kind = "explicit ODE" if d.is_ode else "index-1 DAE"
 
         def names(seq, limit=8):
             seq = list(seq)
@@ -126,6 +127,7 @@ class CompiledModel:
             f"{d.info['observed_only']} only observed (pruned from ode/alg)",
             self._index_line(),
             f"  effects: {effects or '-'}",
+            f"  method (auto): {choose_method(d, 'auto').reason}",
         ] + ([f"  {flat.multibody.summary()}; {len(flat.observed_only)} frame quantities observed only"]
              if flat.multibody is not None else []) + [
             f"  {loop.summary()}" for loop in (flat.multibody.loops if flat.multibody is not None else [])] + [

@@ -142,16 +142,51 @@ class Sine(Signal):
         return f"Sine(amplitude={self.amplitude:g}, f={self.f:g} Hz)"
 
 
-class Table(Signal):
-    """Piecewise-linear interpolation in a table of (time, value) knots; held constant outside it.
+MODES = ("linear", "hold")
 
-    Written as a sum of slope changes, so the expression stays symbolic and
-    differentiable between knots; every interior knot is a time event.
+
+def table_knots(times, values, mode: str = "linear"):
+    """Knots (t, left, right): strictly increasing times, the value just before each and the value from it on.
+
+    Modelica's table modes: "linear" interpolates, and two equal consecutive
+    times make a jump (left value, then right value); "hold" keeps value k on
+    [t_k, t_k+1) (a zero-order hold: replayed optimal controls). Raises ValueError
+    naming the index; the caller says whose table it is.
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode = {mode!r} is not one of {', '.join(map(repr, MODES))}")
+    t = np.asarray(times, dtype=float).ravel()
+    y = np.asarray(values, dtype=float).ravel()
+    step = np.diff(t)
+    for k in range(step.size):
+        if step[k] < 0 or (step[k] == 0 and mode == "hold"):
+            rule = "strictly increasing" + (" except at a jump (two equal times)" if mode == "linear" else "")
+            raise ValueError(f"times must be {rule}, but time[{k}] = {t[k]:g} and time[{k + 1}] = {t[k + 1]:g}")
+        if k + 1 < step.size and step[k] == 0 == step[k + 1]:
+            raise ValueError(f"time[{k}] = time[{k + 1}] = time[{k + 2}] = {t[k]:g}: a jump takes exactly two "
+                             f"equal times (the value before it and the value from it on)")
+    if mode == "hold":
+        return t, np.concatenate([y[:1], y[:-1]]), y
+    first = np.concatenate([[True], step > 0])         # a knot's first time: its left value
+    last = np.concatenate([step > 0, [True]])          # its last time: its right value
+    return t[first], y[first], y[last]
+
+
+class Table(Signal):
+    """A table of (time, value) knots in one of Modelica's modes; held constant outside it.
+
+    `mode="linear"` interpolates linearly, and a time given twice is a jump
+    (the first value before it, the second from it on); `mode="hold"` keeps
+    each value until the next time (a zero-order hold, e.g. an optimal
+    control's). Written as a sum of slope changes and steps, so the expression
+    stays symbolic, differentiable between knots and right-continuous at them;
+    every knot is a time event.
+
+    >>> float(Table([0.0, 1.0, 2.0], [1.0, -1.0, 0.5], mode="hold")(1.5))
+    -1.0
     """
 
-    smoothness = 1
-
-    def __init__(self, times, values):
+    def __init__(self, times, values, mode: str = "linear"):
         for what, given in (("times", times), ("values", values)):
             entries = np.ravel(np.array(given, dtype=object))
             if not_a_number(given) or any(not_a_number(v) or v is None for v in entries):
@@ -163,26 +198,35 @@ class Table(Signal):
                                  f"(got {t.size} times, {y.size} values)")
         if not (np.all(np.isfinite(t)) and np.all(np.isfinite(y))):
             raise ParameterError("Table: times and values must be finite")
-        bad = np.flatnonzero(np.diff(t) <= 0)
-        if bad.size:
-            k = int(bad[0])
-            raise ParameterError(f"Table: times must be strictly increasing, but time[{k}] = {t[k]:g} "
-                                 f"and time[{k + 1}] = {t[k + 1]:g}")
-        self.times, self.values = t, y
+        try:
+            self.knots = table_knots(t, y, mode)
+        except ValueError as exc:
+            raise ParameterError(f"Table: {exc}") from None
+        self.times, self.values, self.mode = t, y, mode
+
+    @property
+    def smoothness(self):
+        """0 where the table jumps (a step of torque cannot prescribe a motion), else 1 (kinks)."""
+        _, left, right = self.knots
+        return 0 if np.any(left != right) else 1
 
     def expr(self, time):
-        t, y = self.times, self.values
+        t, left, right = self.knots
         clamped = _clamp(time, t[0], t[-1])
-        slopes = np.diff(y) / np.diff(t)
+        slopes = (left[1:] - right[:-1]) / np.diff(t)
         changes = np.diff(np.concatenate([[0.0], slopes]))
-        out = ca.SX(y[0])
+        out = ca.SX(left[0])
+        for tk, jump in zip(t, right - left):
+            if jump != 0.0:
+                out = out + ca.if_else(time >= tk, jump, 0.0)
         for tk, dk in zip(t[:-1], changes):
             if dk != 0.0:
                 out = out + dk * ca.if_else(clamped >= tk, clamped - tk, 0.0)
         return out
 
     def events(self):
-        return tuple(float(v) for v in self.times)
+        return tuple(float(v) for v in self.knots[0])
 
     def __repr__(self):
-        return f"Table({self.times.size} knots, t = {self.times[0]:g}..{self.times[-1]:g} s)"
+        hold = ", hold" if self.mode == "hold" else ""
+        return f"Table({self.times.size} knots{hold}, t = {self.times[0]:g}..{self.times[-1]:g} s)"

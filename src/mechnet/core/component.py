@@ -8,6 +8,7 @@ given as `tunable(...)`, so zero terms fold away symbolically.
 from __future__ import annotations
 
 import difflib
+import inspect
 import keyword
 from dataclasses import dataclass
 from typing import Optional
@@ -19,6 +20,7 @@ from .declarations import (Across, Declaration, finite_number, Flag, Input, not_
                            Tunable, Variable)
 from .equation import Eq, register, time
 from .errors import ConnectError, ParameterError, StructureError
+from .signatures import docstring, keyword_names, signature
 
 
 @dataclass
@@ -103,7 +105,9 @@ class Component:
     """Base of every component. Subclass, declare, and write `equations()`.
 
     Keyword arguments: one per parameter; `<var>_start=` fixes a start value,
-    `<var>_guess=` gives a Newton guess, `<var>_nominal=` a scale.
+    `<var>_guess=` gives a Newton guess, `<var>_nominal=` a scale. Every
+    concrete subclass gets a `__signature__` and a docstring listing exactly
+    these (core/signatures.py), since `(name, **kwargs)` would show none.
     """
 
     _declarations: dict[str, Declaration] = {}
@@ -113,6 +117,10 @@ class Component:
         super().__init_subclass__(**kw)
         cls._declarations = _collect(cls)
         cls.abstract = abstract
+        cls._own_doc = inspect.cleandoc(cls.__dict__.get("__doc__") or "")
+        if not abstract:
+            cls.__signature__ = signature(cls)
+            cls.__doc__ = docstring(cls)
 
     def __init__(self, name: str, **kwargs):
         if type(self).abstract:
@@ -195,12 +203,7 @@ class Component:
         return arr
 
     def _unknown_arguments(self, label: str, unknown: list) -> str:
-        valid = list(self.parameter_names())
-        for key, decl in self._declarations.items():
-            if isinstance(decl, Input):
-                valid.append(key)
-            elif isinstance(decl, Variable) and not isinstance(decl, (Across, Through)):
-                valid += [f"{key}_start", f"{key}_guess", f"{key}_nominal"]
+        valid = keyword_names(type(self))       # the same list the signature shows
         hints = []
         for word in unknown:
             close = difflib.get_close_matches(word, valid, n=1)

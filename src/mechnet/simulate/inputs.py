@@ -1,8 +1,11 @@
-"""External inputs: constants, arrays and Python callables, sampled into CasADi interpolants.
+"""External inputs: constants, tables, signals and Python callables, handed to the integrator as interpolants.
 
 A callable is never called inside the integrator: it is sampled once on a
 fine grid over the run, checked (shape, finiteness — naming the input and the
 time of a bad value), and handed to the integrator as a linear interpolant.
+Tables are exact: a (times, values) pair may jump (a time given twice), a
+`Table` may also hold each value (mode="hold"), and their jumps (a Table's
+every knot) are time events of the run, so the integrator never steps across one.
 """
 from __future__ import annotations
 
@@ -13,6 +16,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from ..components.signals import Signal, Table, table_knots
 from ..core.declarations import finite_number, not_a_number
 from ..core.errors import InputError
 from .result import unknown_name
@@ -21,7 +25,8 @@ from .result import unknown_name
 @dataclass(frozen=True)
 class InputPlan:
     constant: np.ndarray            # value of every input (time-varying ones: their value at t_start)
-    varying: dict                   # input index -> (times, values) arrays
+    varying: dict                   # input index -> knots (times, left, right values): `signals.table_knots`
+    time_events: tuple = ()         # (time, cause): where an input table jumps (a Table: every knot)
 
     def key(self) -> tuple:
         """What an integrator built for this plan depends on: which inputs vary and their tables' times.
@@ -29,18 +34,23 @@ class InputPlan:
         an optimiser's checks, any callable over the same run) reuses the integrator. Times stay
         constants: as parameters they doubled the cost of every right-hand side (a 2001-knot lookup),
         values cost 15 % (benchmarks in the issue note)."""
-        return tuple((k, t.tobytes()) for k, (t, v) in sorted(self.varying.items()))
+        return tuple((k, knots[0].tobytes()) for k, knots in sorted(self.varying.items()))
 
-    def table_data(self) -> np.ndarray:
-        """Every varying input's values, in input order: the tail of the integrator's parameter vector."""
-        return np.concatenate([self.varying[k][1] for k in sorted(self.varying)] or [np.zeros(0)])
+    def table_data(self, t0: float = -np.inf) -> np.ndarray:
+        """Every varying input's knot values for an integrator call starting at t0, in input order: the tail
+        of the integrator's parameter vector. Knots at or before t0 give their right value, later ones
+        their left value. No call crosses a jump (each is a time event), so the linear interpolant
+        between the two is exact within a call, and a zero-order hold is a table of jumps."""
+        return np.concatenate([np.where(t <= t0, right, left) for t, left, right in
+                               (self.varying[k] for k in sorted(self.varying))] or [np.zeros(0)])
 
     def at(self, ts) -> np.ndarray:
-        """Every input at each of the times ts, one column per time (linear between samples)."""
+        """Every input at each of the times ts, one column per time (right-continuous at jumps, as the
+        integrator takes them after a restart)."""
         ts = np.asarray(ts, dtype=float).ravel()
         U = np.tile(self.constant.reshape(-1, 1), ts.size)
-        for k, (times, values) in self.varying.items():
-            U[k] = np.interp(ts, times, values)
+        for k, knots in self.varying.items():
+            U[k] = _right_continuous(ts, *knots)
         return U
 
     def interpolated(self, t, tables) -> dict:
@@ -55,47 +65,83 @@ class InputPlan:
         return out
 
 
+def _right_continuous(ts, times, left, right) -> np.ndarray:
+    """Linear from each knot's right value to the next knot's left value; left[0] before, right[-1] after."""
+    i = np.clip(np.searchsorted(times, ts, side="right") - 1, 0, times.size - 2)
+    share = (ts - times[i]) / (times[i + 1] - times[i])
+    out = right[i] + share * (left[i + 1] - right[i])
+    return np.where(ts < times[0], left[0], np.where(ts >= times[-1], right[-1], out))
+
+
 def plan_inputs(dae, given: dict | None, t_start: float, t_end: float, n_samples: int) -> InputPlan:
     names = dae.u_names
     constant = np.array(dae.u_default, dtype=float)
-    varying = {}
+    varying, events = {}, []
     for name, value in (given or {}).items():
         if name not in names:
             if name in dae.observed_names:
                 raise InputError(f"{name!r} is a variable of the model, not an input; the inputs are "
                                  f"{', '.join(names) or 'none (add a Torque/Force input component)'}")
             raise unknown_name(name, names, "input")
-        k = names.index(name)
-        if callable(value):
+        k, cause = names.index(name), f"input {name} knot"
+        if isinstance(value, Table):
+            knots, at = value.knots, value.events()
+        elif isinstance(value, Signal):
+            knots, at = _signal_knots(value, t_start, t_end, n_samples)
+            cause = f"input {name}: {value!r}"
+        elif callable(value):
             times = np.linspace(t_start, t_end, max(n_samples, 2))
-            values = np.empty_like(times)
-            for i, t in enumerate(times):
-                out = _sample(name, value, float(t))
-                if out.size != 1:
-                    raise InputError(f"input {name!r}: the callable returned shape {out.shape} at t = {t:g} s; "
-                                     f"it must return one number")
-                if not np.isfinite(out.reshape(())):
-                    raise InputError(f"input {name!r}: the callable returned {float(out.reshape(()))} at "
-                                     f"t = {t:g} s; values must be finite")
-                values[i] = float(out.reshape(()))
-            varying[k] = (times, values)
+            values = np.array([_sample_number(name, value, float(t)) for t in times])
+            knots, at = (times, values, values), ()
         elif value is None or not_a_number(value) or isinstance(value, Mapping):
             raise InputError(f"input {name!r} = {value!r:.60}: give a number, a callable f(t), a (times, values) "
-                             f"pair or an N×2 array")
+                             f"pair, an N×2 array or a Table")
         elif isinstance(value, numbers.Real) or (isinstance(value, np.ndarray) and value.ndim == 0):
             constant[k] = finite_number(value, f"input {name!r}", InputError)
+            continue
         else:
-            times, values = _table(name, value)
-            # held constant outside the table, for the integrator as for the results (CasADi's
-            # interpolant would extrapolate linearly)
-            if times[0] > t_start:
-                times, values = np.concatenate([[t_start], times]), np.concatenate([[values[0]], values])
-            if times[-1] < t_end:
-                times, values = np.concatenate([times, [t_end]]), np.concatenate([values, [values[-1]]])
-            varying[k] = (times, values)
-    for k, (times, values) in varying.items():
-        constant[k] = float(np.interp(t_start, times, values))
-    return InputPlan(constant, varying)
+            # jumps only: restarting at every sample of measured data would cost a solver ramp-up each,
+            # and a kink is within the step control's reach
+            knots = _table(name, value)
+            at = knots[0][knots[1] != knots[2]]
+        varying[k] = _held(*knots, t_start, t_end)
+        events += [(float(t), cause) for t in at]
+    for k, knots in varying.items():
+        constant[k] = float(_right_continuous(np.array([t_start]), *knots)[0])
+    return InputPlan(constant, varying, tuple(events))
+
+
+def _held(times, left, right, t_start, t_end):
+    """Knots reaching over [t_start, t_end], held constant outside the table for the integrator as for the
+    results (CasADi's interpolant would extrapolate linearly)."""
+    if times[0] > t_start:
+        times, left, right = np.r_[t_start, times], np.r_[left[0], left], np.r_[left[0], right]
+    if times[-1] < t_end:
+        times, left, right = np.r_[times, t_end], np.r_[left, right[-1]], np.r_[right, right[-1]]
+    return times, left, right
+
+
+def _signal_knots(signal, t_start, t_end, n_samples):
+    """A Signal other than a Table (Step, Ramp, Sine): sampled like a callable, with a knot at each of its
+    events (value just before, value from it on), so its steps and corners are exact and are time events."""
+    inside = np.array([t for t in signal.events() if t_start < t < t_end])
+    times = np.union1d(np.linspace(t_start, t_end, max(n_samples, 2)), inside)
+    right = signal(times)
+    left = right.copy()
+    if inside.size:
+        left[np.searchsorted(times, inside)] = signal(np.nextafter(inside, -np.inf))
+    return (times, left, right), inside
+
+
+def _sample_number(name, f, t) -> float:
+    out = _sample(name, f, t)
+    if out.size != 1:
+        raise InputError(f"input {name!r}: the callable returned shape {out.shape} at t = {t:g} s; "
+                         f"it must return one number")
+    if not np.isfinite(out.reshape(())):
+        raise InputError(f"input {name!r}: the callable returned {float(out.reshape(()))} at "
+                         f"t = {t:g} s; values must be finite")
+    return float(out.reshape(()))
 
 
 def _sample(name, f, t) -> np.ndarray:
@@ -116,6 +162,7 @@ def _sample(name, f, t) -> np.ndarray:
 
 
 def _table(name, value):
+    """A (times, values) pair or N×2 array as knots (`signals.table_knots`: a time given twice is a jump)."""
     try:
         return _table_arrays(name, value)
     except InputError:
@@ -145,13 +192,12 @@ def _table_arrays(name, value):
     if nonfinite.size:
         k = int(nonfinite[0])
         raise InputError(f"input {name!r}: time[{k}] = {times[k]} is not finite")
-    bad = np.flatnonzero(np.diff(times) <= 0)
-    if bad.size:
-        k = int(bad[0])
-        raise InputError(f"input {name!r}: times must be strictly increasing (time[{k}] = {times[k]:g}, "
-                         f"time[{k + 1}] = {times[k + 1]:g})")
+    try:
+        knots = table_knots(times, values)
+    except ValueError as exc:
+        raise InputError(f"input {name!r}: {exc}") from None
     nonfinite = np.flatnonzero(~np.isfinite(values))
-    if nonfinite.size or not np.all(np.isfinite(times)):
-        k = int(nonfinite[0]) if nonfinite.size else 0
+    if nonfinite.size:
+        k = int(nonfinite[0])
         raise InputError(f"input {name!r}: value {values[k]} at t = {times[k]:g} s is not finite")
-    return times, values
+    return knots

@@ -19,7 +19,7 @@ from .initialize import initialize
 from .inputs import plan_inputs
 from .result import Result, unknown_name
 from .run import Run
-from .solvers import plugin_for
+from .solvers import choose_method
 
 RTOL_RANGE = (1e-14, 1.0)        # a relative error per step: 1 or more lets a step be wrong by its whole
                                 # size; below 1e-14 round-off in double precision cannot meet it
@@ -37,8 +37,10 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     """Integrate the compiled model from `t_start` to `t_end`.
 
     `start` fixes values (any dotted name), `guess` only seeds the Newton
-    iteration; `inputs` maps input names to numbers, callables f(t), (times,
-    values) pairs or N×2 arrays. `steady_state=True` starts from der(x) = 0
+    iteration; `inputs` maps input names to numbers, callables f(t) (sampled: jumps are smeared), (times,
+    values) pairs or N×2 arrays (a time given twice is a jump), or a `Table`/`Signal` (exact, its knots
+    time events). `method="auto"`: CVODES Adams for an explicit ODE, BDF from the first sign of
+    stiffness on; IDAS for a DAE (`res.stats["method"]`, `res.stats["method_reason"]`). `steady_state=True` starts from der(x) = 0
     (every state; fixed start values then over-specify). `progress=None` shows a bar when a long grid
     (≥ 1000 points) takes more than a second. A solver failure returns the
     partial result with `result.failure` set (and a warning); it does not raise.
@@ -71,7 +73,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
         t_start = continue_from.final_time
         guess = {**continue_from.final_values, **(guess or {})}
         dae = _selection_with_states(cm, continue_from.state_names) or dae
-    method, plugin, extra = plugin_for(dae, method)
+    choice = choose_method(dae, method)
     if t_out is not None:
         if n_out is not None:
             raise MechnetError("give either n_out or t_out, not both")
@@ -107,14 +109,14 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
 
     wall = _time.perf_counter()
     init = initialize(dae, t_start, plan.constant, p, starts, guess or {}, steady_state)
-    events = breakpoints(dae.time_events, t_start, t_end)
+    events = breakpoints((*dae.time_events, *plan.time_events), t_start, t_end)
     grid = output_grid(grid, events)
-    run = Run(cm, dae, plugin, extra, rtol, atol, max_steps, plan, p, d, init)
+    run = Run(cm, dae, choice, rtol, atol, max_steps, plan, p, d, init)
     with captured() as messages:             # SUNDIALS's text stays with this run (solver_output.py)
         run.integrate(grid, events, progress)
     stats = run.stats
     stats["wall_time"] = _time.perf_counter() - wall
-    stats["method"], stats["plugin"] = method, plugin
+    stats["plugin"] = run.choice.plugin
     stats["solver_messages"] = messages
     T = np.array(run.T)
 
@@ -147,7 +149,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
         X = observed[:, [column[n] for n in final.x_names if n in column]] \
             if all(n in column for n in final.x_names) else np.array(run.X)
     result = Result(T, observed, dae.observed_names, dae.units, stats, X, np.zeros((T.size, 0)), final.x_names,
-                    events=run.events, failure=run.failure, known=known,
+                    events=run.events, failure=run.failure, known=known, title=cm.name,
                     initial={"fixed": init.fixed, "free_states": init.free_states, "residual": init.residual})
     if run.failure is not None:
         run.failure.result = result

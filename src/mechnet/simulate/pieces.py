@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .solvers import call
 from .winding import WINDING_POINTS
 
 SOLVER_STEPS_PER_CHECK = 16.0   # the state-selection monitor checks its quality about this often
@@ -242,23 +241,20 @@ class MonitoredPieces:
         t0, h = pts[0], pts[-1] - pts[0]
         tau = tuple(float(v) for v in np.round((pts[1:] - t0) / h, 12))   # 12 digits: grid round-off shares keys
         budget = self._step_budget(float(np.max(np.diff(pts)))) if budgeted else None
-        F = self.integrators.get(tau, budget)
         self._failed_at = None
         try:
             ox, oz = self._turns(self.x, self.z)
-            out = call(F, (self.x - ox) / self.xn, (self.z - oz) / self.zn if self.zn.size else np.zeros(0),
-                       self.pvec(t0, h))
+            F, out = self._call(t0, h, lambda: self.integrators.get(tau, budget), (self.x - ox) / self.xn,
+                                (self.z - oz) / self.zn if self.zn.size else np.zeros(0), self.pvec(t0, h),
+                                budgeted=budget is not None and budget < self.integrators.max_steps)
         except RuntimeError as exc:
             # after a failure CasADi's `tcur` is the last output time the solver reached (normalised; 0
             # when it failed before the first): the failure lies after it
-            reached = F.stats().get("tcur", float("nan"))
+            reached = self.integrators.get(tau, budget).stats().get("tcur", float("nan"))
             self._failed_at = t0 + reached * h if np.isfinite(reached) and 0 < reached < 1 else None
             return False, str(exc), None, None
         s = F.stats()
-        for key in ("nsteps", "nfevals", "netfails"):
-            self.stats[key] += int(s.get(key, 0))
-        self.stats["segments"] += 1
-        self.stats["hlast"] = float(s.get("hlast", float("nan"))) * h
+        self._count(s, h)
         # the mean step of this piece (the last step alone can be tiny: a restart, an output time)
         self._mean_step = h / max(int(s.get("nsteps", 0)), 1)
         xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn + ox

@@ -24,37 +24,48 @@ from .events import Event, chunk_bounds
 from .initialize import solve_algebraic
 from .pieces import MonitoredPieces
 from .reselection import Reselection, SelectionMonitor
-from .solvers import Integrators, call, solver_message
+from .solvers import Integrators, MethodChoice, call, solver_message
 from .state_events import StateEvents
 from .winding import TURN_LIMIT, WINDING_POINTS, turns_of, whole_turns
 
 PROGRESS_CHUNKS = 20
 PROGRESS_MIN_POINTS = 1000
 PROGRESS_AFTER_SECONDS = 1.0
+ADAMS_PROBE_STEPS = 4096        # steps per output interval Adams may take under "auto" before BDF is tried
+STIFF_GAIN = 8                   # BDF's steps below the probe budget / STIFF_GAIN: stiff (else a long interval)
+STIFF_SHARE = 0.1                # of an Adams call's steps failing to converge: stiff (measured: stiff scenes
+STIFF_MIN_STEPS = 200            # 0.36, the examples at most 0.036, examples/drive_line.py)
 ATOL_RESOLVED = 1e-14            # (per unit of nominal) an atol below this is named when a run fails
 
 
 class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
     """The segment loop: integrate between boundaries, restart at events, stop at a failure."""
 
-    def __init__(self, cm, dae, plugin, extra, rtol, atol, max_steps, plan, p, d, init):
+    def __init__(self, cm, dae, choice, rtol, atol, max_steps, plan, p, d, init):
         self.cm, self.plan, self.p, self.d = cm, plan, p, d
-        self.tables = plan.table_data()
-        self.settings = (plugin, extra, rtol, atol, max_steps)
+        self.choice = choice
+        self.settings = (choice.plugin, choice.options, rtol, atol, max_steps)
+        self._probing = choice.fallback is not None
         self._use(dae)
         self.T, self.X, self.Z, self.D = [], [], [], []
         self.events: list[Event] = []
         self.failure = None
-        self.stats = {"nsteps": 0, "nfevals": 0, "netfails": 0, "segments": 0}
+        self.stats = {"nsteps": 0, "nfevals": 0, "netfails": 0, "nncfails": 0, "segments": 0,
+                      "method": choice.method, "method_reason": choice.reason}
         self.x, self.z = init.x.copy(), init.z.copy()
 
     def _use(self, dae):
-        plugin, extra, rtol, atol, max_steps = self.settings
         self.dae = dae
         self._fold_floor = None                        # a new selection: no failed step over to remember
-        self.integrators = Integrators(self.cm, dae, plugin, extra, rtol, atol, max_steps, self.plan)
+        self.integrators = self._integrators(dae)
         self.xn = np.array(dae.x_nominal, dtype=float)
         self.zn = np.array(dae.z_nominal, dtype=float)
+
+    def _integrators(self, dae) -> Integrators:
+        plugin, extra, rtol, atol, max_steps = self.settings
+        if self._probing:
+            max_steps = min(max_steps, ADAMS_PROBE_STEPS)
+        return Integrators(self.cm, dae, plugin, extra, rtol, atol, max_steps, self.plan)
 
     def _record(self, t):
         self.T.append(t)
@@ -63,7 +74,9 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         self.D.append(self.dae)
 
     def pvec(self, t0, h):
-        return np.concatenate([self.plan.constant, self.p, self.d, [t0, h], self.tables])
+        """Parameters of an integrator call from t0 over h: the input tables' values depend on t0 (each
+        knot's value after a jump once the call starts at or after it, `InputPlan.table_data`)."""
+        return np.concatenate([self.plan.constant, self.p, self.d, [t0, h], self.plan.table_data(t0)])
 
     def integrate(self, grid, events, progress):
         with BUILD_LOCK:             # the branch check builds its functions on a model's first run
@@ -200,14 +213,16 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         grid; else a normalised one, shared by calls of one pattern: `_segment`'s pieces)."""
         t0, h = points[0], points[-1] - points[0]
         if keep is None:
-            F = self.integrators.get_real(tuple(float(v) for v in points))
+            def get():
+                return self.integrators.get_real(tuple(float(v) for v in points))
         else:
-            F = self.integrators.get(tuple(float(v) for v in np.round((points[1:] - t0) / h, 12)))
+            def get():
+                return self.integrators.get(tuple(float(v) for v in np.round((points[1:] - t0) / h, 12)))
         ox, oz = self._turns(self.x, self.z)
         xs = (self.x - ox) / self.xn
         zs = (self.z - oz) / self.zn if self.zn.size else np.zeros(0)
         try:
-            out = call(F, xs, zs, self.pvec(t0, h))
+            F, out = self._call(t0, h, get, xs, zs, self.pvec(t0, h))
         except RuntimeError as exc:
             return False, str(exc)
         xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn + ox
@@ -220,12 +235,76 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         self.X.extend(xf)
         self.Z.extend(zf)
         self.D.extend([self.dae] * len(xf))
-        s = F.stats()
-        for k in ("nsteps", "nfevals", "netfails"):
+        self._count(F.stats(), h)
+        return True, ""
+
+    def _count(self, s, h):
+        """Add one successful call's solver statistics (`s`: F.stats(), over a call of length h)."""
+        for k in ("nsteps", "nfevals", "netfails", "nncfails"):
             self.stats[k] += int(s.get(k, 0))
         self.stats["segments"] += 1
         self.stats["hlast"] = float(s.get("hlast", float("nan"))) * h
-        return True, ""
+
+    def _call(self, t0, h, get, xs, zs, p, budgeted=False):
+        """One integrator call, F = get() from (xs, zs) with parameters p over [t0, t0 + h]: every call of
+        the run goes through here. Returns (F, outputs) or raises RuntimeError as `solvers.call` does.
+
+        Under method="auto" an ODE starts with Adams' functional iteration, which stiffness defeats: its
+        steps shrink to the fast time scale and fail to converge on a good share of them (a 1e8 N/m
+        spring-damper on 1 g: 2.7e6 failures in 7.4e6 steps and 30 s, where BDF takes 372 steps). So
+        Adams runs on a step budget of ADAMS_PROBE_STEPS per output interval; a failed Adams call
+        (other than on a budget a monitored piece set itself) is retried with BDF (`_fall_back`), and
+        a successful one whose iteration failed on STIFF_SHARE of its steps hands the rest to BDF."""
+        F = get()
+        try:
+            out = call(F, xs, zs, p)
+        except RuntimeError as exc:
+            code = solver_message(str(exc))
+            if self.choice.fallback is None or (budgeted and code.endswith("TOO_MUCH_WORK")):
+                raise
+            probe = self.integrators.max_steps
+            self._fall_back(t0, f"Adams failed ({code}) before t = {t0 + h:.6g} s; BDF from the call's start")
+            F = get()
+            try:
+                out = call(F, xs, zs, p)
+            except RuntimeError as again:       # BDF ran out of steps too: long intervals, not stiffness
+                if not (code.endswith("TOO_MUCH_WORK") and solver_message(str(again)).endswith("TOO_MUCH_WORK")):
+                    raise
+                out, per_interval = None, float("inf")
+            else:
+                per_interval = int(F.stats().get("nsteps", 0)) / max(F.size2_out(0), 1)
+            if code.endswith("TOO_MUCH_WORK") and per_interval * STIFF_GAIN > probe:
+                self._switch("cvodes-adams", "cvodes-bdf", t0 if out is None else t0 + h,
+                             f"not stiff: BDF took {per_interval:.0f} steps per output interval where Adams ran "
+                             f"out of {probe} in one (long intervals); Adams from here without the probe budget")
+                if out is None:
+                    F = get()
+                    out = call(F, xs, zs, p)
+            return F, out
+        if self.choice.fallback is not None:
+            s = F.stats()
+            steps, failures = int(s.get("nsteps", 0)), int(s.get("nncfails", 0))
+            if steps >= STIFF_MIN_STEPS and failures >= STIFF_SHARE * steps:
+                self._fall_back(t0 + h, f"stiff: Adams' functional iteration failed to converge on {failures} "
+                                        f"of {steps} steps")
+        return F, out
+
+    def _fall_back(self, t, why):
+        """From time t on, the run integrates with BDF (stiffness: `_call`)."""
+        self._switch(self.choice.fallback, None, t, why)
+
+    def _switch(self, method, fallback, t, why):
+        """Integrate with `method` from time t on (falling back to `fallback` on stiffness), recorded as a
+        "method" event. Adams probes on a budget of ADAMS_PROBE_STEPS only until the first switch."""
+        old = self.choice.method
+        self.choice = MethodChoice(method, self.choice.reason, fallback)
+        self._probing = False
+        self.settings = (self.choice.plugin, self.choice.options, *self.settings[2:])
+        self.integrators = self._integrators(self.dae)
+        cause = f"{old} -> {method} at t = {t:.6g} s: {why}"
+        self.events.append(Event(float(t), "method", cause))
+        self.stats["method"] = method
+        self.stats["method_reason"] += f"; {cause}"
 
     def _advice(self, solver: str) -> str:
         """Which argument of simulate() to change, when the solver's code says it was the arguments (too

@@ -77,7 +77,7 @@ from ..core.errors import IntegrationError
 from ..numeric import mapped_in
 from .events import Event
 from .initialize import solve_algebraic
-from .solvers import call, solver_message
+from .solvers import solver_message
 
 SPLIT_DEPTH = 3          # times a predicted but unconfirmed crossing is searched again on sub-intervals
 SX_SOLVE_MAX = 8         # algebraic variables up to which ż is solved symbolically in SX
@@ -332,11 +332,10 @@ class StateEvents:
     def _advance_to(self, t_a, x_a, z_a, t):
         """The state at t integrated from (t_a, x_a, z_a), without the whole turns of periodic
         coordinates like every integrator call (`Run._turns`); raises EventSearchFailed."""
-        F1 = self.integrators.get((1.0,))
         ox, oz = self._turns(np.asarray(x_a, dtype=float), np.asarray(z_a, dtype=float))
         try:
-            out = call(F1, (x_a - ox) / self.xn, (z_a - oz) / self.zn if self.zn.size else np.zeros(0),
-                       self.pvec(t_a, t - t_a))
+            _, out = self._call(t_a, t - t_a, lambda: self.integrators.get((1.0,)), (x_a - ox) / self.xn,
+                                (z_a - oz) / self.zn if self.zn.size else np.zeros(0), self.pvec(t_a, t - t_a))
         except RuntimeError as exc:
             raise EventSearchFailed(t_a, t, str(exc)) from None
         x = np.asarray(out["xf"]).ravel() * self.xn + ox

@@ -27,19 +27,18 @@ def test_to_csv_round_trips(tmp_path):
     path = tmp_path / "out.csv"
     res.to_csv(path, ["j1.phi", "spring.tau"])
     lines = path.read_text().splitlines()
-    assert lines[0] == "# units: s,rad,N*m"
-    assert lines[1] == "time,j1.phi,spring.tau"
-    data = np.loadtxt(path, delimiter=",", skiprows=2)
+    assert lines[0] == "time [s],j1.phi [rad],spring.tau [N*m]"
+    data = np.loadtxt(path, delimiter=",", skiprows=1)
     assert np.array_equal(data[:, 0], res.t) and np.array_equal(data[:, 1], res["j1.phi"])
 
 
 def test_plot_labels_carry_units(tmp_path):
     res = oscillator().compile().simulate(0.1, n_out=11)
     fig = res.plot(["j1.phi", "j1.w"])
-    ax = fig.axes[0]
-    labels = [line.get_label() for line in ax.get_lines()]
-    assert labels == ["j1.phi [rad]", "j1.w [rad/s]"]
-    assert ax.get_xlabel() == "time [s]"
+    assert [[line.get_label() for line in a.get_lines()] for a in fig.axes] == [["j1.phi"], ["j1.w"]]
+    assert [a.get_ylabel() for a in fig.axes] == ["rad", "rad/s"]
+    assert fig.axes[-1].get_xlabel() == "time [s]"
+    assert res.title == "oscillator" and fig._suptitle.get_text() == "oscillator"
     fig.savefig(tmp_path / "p.png")
 
 

@@ -150,6 +150,8 @@ class WorldForce(_WorldLoad):
     """A force on frame_b's origin: three numbers or signals (N), resolved in world (default) or frame_b."""
 
     _what = "force"
+    _argument_docs = {"force": ("N", "three numbers or signals (mechnet.components.signals)"),
+                      "resolve_in": ("", "'world' or 'frame_b': the axes the force is given in")}
 
     def __init__(self, name: str, force=(0.0, 0.0, 0.0), resolve_in: str = "world", **kwargs):
         super().__init__(name, force, resolve_in, **kwargs)
@@ -164,6 +166,8 @@ class WorldTorque(_WorldLoad):
     """A torque on frame_b: three numbers or signals (N·m), resolved in world (default) or frame_b."""
 
     _what = "torque"
+    _argument_docs = {"torque": ("N*m", "three numbers or signals (mechnet.components.signals)"),
+                      "resolve_in": ("", "'world' or 'frame_b': the axes the torque is given in")}
 
     def __init__(self, name: str, torque=(0.0, 0.0, 0.0), resolve_in: str = "world", **kwargs):
         super().__init__(name, torque, resolve_in, **kwargs)

@@ -12,6 +12,10 @@ from .interfaces import Frame, PartialBody, PartialTreeEdge
 
 
 def physical_inertia(value):
+    """must be a physical inertia tensor (symmetric, positive semi-definite, triangle inequality)
+
+    (The first line describes the check in help(Body) and docs/components.md.)
+    """
     return inertia_problem(value)
 
 

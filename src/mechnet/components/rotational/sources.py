@@ -16,7 +16,7 @@ from .interfaces import PartialOneFlange
 class Torque(PartialOneFlange):
     """External torque input `<name>.tau` (default value `tau=`), acting on the connected flange."""
 
-    tau = Input(unit="N*m", doc="driving torque (input)")
+    tau = Input(unit="N*m", doc="driving torque on the flange")
 
     def equations(self):
         return [Eq(self.flange.tau, -self.tau, "the source drives its flange with +tau")]
@@ -25,7 +25,7 @@ class Torque(PartialOneFlange):
 class ConstantTorque(PartialOneFlange):
     """Constant torque tau_constant acting on the connected flange."""
 
-    tau_constant = Param(unit="N*m", doc="driving torque")
+    tau_constant = Param(unit="N*m", doc="constant driving torque on the flange")
 
     def equations(self):
         return [Eq(self.flange.tau, -self.tau_constant, "the source drives its flange with +tau_constant")]

@@ -18,7 +18,7 @@ class Force(PartialOneFlange):
     flange.f = −f: a positive f accelerates an attached mass in the positive s direction.
     """
 
-    f = Input(unit="N", doc="driving force (input)")
+    f = Input(unit="N", doc="driving force on the flange")
 
     def equations(self):
         return [Eq(self.flange.f, -self.f, "the source drives its flange with +f")]
@@ -27,7 +27,7 @@ class Force(PartialOneFlange):
 class ConstantForce(PartialOneFlange):
     """Constant force f_constant pushing the connected flange: flange.f = −f_constant."""
 
-    f_constant = Param(unit="N", doc="driving force")
+    f_constant = Param(unit="N", doc="constant driving force on the flange")
 
     def equations(self):
         return [Eq(self.flange.f, -self.f_constant, "the source drives its flange with +f_constant")]
