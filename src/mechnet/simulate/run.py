@@ -262,31 +262,37 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
             code = solver_message(str(exc))
             if self.choice.fallback is None or (budgeted and code.endswith("TOO_MUCH_WORK")):
                 raise
-            probe = self.integrators.max_steps
-            self._fall_back(t0, f"Adams failed ({code}) before t = {t0 + h:.6g} s; BDF from the call's start")
-            F = get()
-            try:
-                out = call(F, xs, zs, p)
-            except RuntimeError as again:       # BDF ran out of steps too: long intervals, not stiffness
-                if not (code.endswith("TOO_MUCH_WORK") and solver_message(str(again)).endswith("TOO_MUCH_WORK")):
-                    raise
-                out, per_interval = None, float("inf")
-            else:
-                per_interval = int(F.stats().get("nsteps", 0)) / max(F.size2_out(0), 1)
-            if code.endswith("TOO_MUCH_WORK") and per_interval * STIFF_GAIN > probe:
-                self._switch("cvodes-adams", "cvodes-bdf", t0 if out is None else t0 + h,
-                             f"not stiff: BDF took {per_interval:.0f} steps per output interval where Adams ran "
-                             f"out of {probe} in one (long intervals); Adams from here without the probe budget")
-                if out is None:
-                    F = get()
-                    out = call(F, xs, zs, p)
-            return F, out
+            return self._after_adams_failed(code, t0, h, get, xs, zs, p)
         if self.choice.fallback is not None:
             s = F.stats()
             steps, failures = int(s.get("nsteps", 0)), int(s.get("nncfails", 0))
             if steps >= STIFF_MIN_STEPS and failures >= STIFF_SHARE * steps:
                 self._fall_back(t0 + h, f"stiff: Adams' functional iteration failed to converge on {failures} "
                                         f"of {steps} steps")
+        return F, out
+
+    def _after_adams_failed(self, code, t0, h, get, xs, zs, p):
+        """The Adams call of `_call` failed with solver code `code`: the call again with BDF. When Adams
+        ran out of its probe budget but BDF needs about as many steps per output interval (or runs out
+        too), the intervals were long, not stiff: Adams again, without the probe budget."""
+        probe = self.integrators.max_steps
+        self._fall_back(t0, f"Adams failed ({code}) before t = {t0 + h:.6g} s; BDF from the call's start")
+        F = get()
+        try:
+            out = call(F, xs, zs, p)
+        except RuntimeError as again:
+            if not (code.endswith("TOO_MUCH_WORK") and solver_message(str(again)).endswith("TOO_MUCH_WORK")):
+                raise
+            out, per_interval = None, float("inf")
+        else:
+            per_interval = int(F.stats().get("nsteps", 0)) / max(F.size2_out(0), 1)
+        if code.endswith("TOO_MUCH_WORK") and per_interval * STIFF_GAIN > probe:
+            self._switch("cvodes-adams", "cvodes-bdf", t0 if out is None else t0 + h,
+                         f"not stiff: BDF took {per_interval:.0f} steps per output interval where Adams ran "
+                         f"out of {probe} in one (long intervals); Adams from here without the probe budget")
+            if out is None:
+                F = get()
+                out = call(F, xs, zs, p)
         return F, out
 
     def _fall_back(self, t, why):

@@ -46,17 +46,18 @@ class MethodChoice:
 
 def choose_method(dae, method: str) -> MethodChoice:
     """`auto`: IDAS for a DAE; for an explicit ODE, Adams with functional iteration, which reaches the
-    same error 2-8x cheaper than BDF on the non-stiff scenes measured and does not damp an oscillation
-    (BDF's numerical damping cost a pendulum 31 % of its energy over 10^4 periods;
-    docs/benchmarks.md#methods), with BDF from the first sign of stiffness on (`Run._call`)."""
+    same error as BDF 2.8-4.5x faster on a 10-link chain (8x at the default settings on 40 links; a
+    single pendulum 0.9-1.9x) and does not damp an oscillation: over 10^4 periods BDF lost 10.8 % of a
+    pendulum's swing energy, Adams 0.8 % (docs/benchmarks.md, methods). BDF takes over from the first
+    sign of stiffness on (`Run._call`)."""
     if method not in METHODS:
         raise MechnetError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     if method == "auto":
         if not dae.is_ode:
-            return MethodChoice("idas", f"auto: IDAS (BDF), the model keeps {dae.z.numel()} algebraic variables")
-        return MethodChoice("cvodes-adams", "auto: CVODES Adams (explicit ODE, non-stiff until shown otherwise); "
-                                            "BDF from the first failure of its functional iteration on",
-                            fallback="cvodes-bdf")
+            n = dae.z.numel()
+            return MethodChoice("idas", f"auto: IDAS (BDF), the model keeps {n} algebraic variable{'s' * (n > 1)}")
+        return MethodChoice("cvodes-adams", "auto: CVODES Adams, an explicit ODE taken as non-stiff until its "
+                                            "functional iteration fails; then BDF", fallback="cvodes-bdf")
     if method.startswith("cvodes") and not dae.is_ode:
         raise MechnetError(f"method {method!r} needs an explicit ODE, but this model keeps "
                            f"{dae.z.numel()} algebraic variables ({', '.join(dae.z_names[:5])}); use 'idas' or 'auto'")
