@@ -135,10 +135,18 @@ def test_ax_takes_one_axes_per_unit(kicked):
     assert [a.get_ylabel() for a in pair] == ["rad", "rad/s"]
 
 
-@pytest.mark.parametrize("ax", ["one", "too few", "not axes"])
+def test_one_axes_takes_every_unit_as_before(kicked):
+    # review: res.plot(names, ax=ax) drew everything into ax before the unit groups; it still does
+    fig, single = plt.subplots()
+    kicked.plot(MIXED, ax=single)
+    assert sorted(line.get_label() for line in single.get_lines()) == sorted(MIXED)
+    assert single.get_ylabel() == "rad, rad/s, N*m"
+
+
+@pytest.mark.parametrize("ax", ["too few", "not axes"])
 def test_ax_that_does_not_fit_the_units_is_refused(kicked, ax):
     fig, axes = plt.subplots(1, 2)
-    given = {"one": axes[0], "too few": list(axes), "not axes": ["a", "b", "c"]}[ax]
+    given = {"too few": list(axes), "not axes": ["a", "b", "c"]}[ax]
     with pytest.raises(MechnetError, match=r"plot\(ax=\.\.\.\): the names have 3 unit\(s\) \(rad, rad/s, N\*m\)"):
         kicked.plot(MIXED, ax=given)
 

@@ -10,6 +10,7 @@ argument message lists `keyword_names`, so the three cannot drift apart.
 from __future__ import annotations
 
 import inspect
+import types
 
 import numpy as np
 
@@ -25,8 +26,9 @@ def check_text(check) -> str:
     """'must be > 0' for `positive`; other checks describe themselves by their docstring's first line."""
     if check in CHECKS:
         return CHECKS[check]
-    doc = inspect.getdoc(check)
-    return doc.splitlines()[0].rstrip(".") if doc else check.__name__
+    own = getattr(check, "__doc__", None) if isinstance(check, (types.FunctionType, types.MethodType)) else None
+    doc = inspect.cleandoc(own) if own else ""
+    return doc.splitlines()[0].rstrip(".") if doc else f"checked by {getattr(check, '__name__', type(check).__name__)}"
 
 
 def shape_text(shape) -> str:

@@ -189,6 +189,8 @@ class Result:
         else:
             axes = _given_axes(ax, list(groups))
             fig = axes[0].figure
+            if len(axes) == 1 and len(groups) > 1:      # one Axes given: every unit in it, as before
+                groups = {", ".join(groups): [n for group in groups.values() for n in group]}
         for axis, (unit, group) in zip(axes, groups.items()):
             for n in group:
                 line, = axis.plot(self.t, self[n], label=n)
@@ -245,10 +247,13 @@ def _column_label(name: str, unit: str) -> str:
 
 
 def _given_axes(ax, units: list) -> list:
-    """`plot(ax=...)` as one matplotlib Axes per unit group, or an error saying how many are needed."""
+    """`plot(ax=...)`: one Axes (every unit drawn in it) or one per unit group, else an error saying how
+    many are needed."""
     from matplotlib.axes import Axes
 
-    axes = [ax] if isinstance(ax, Axes) else list(np.ravel(np.asarray(ax, dtype=object)))
+    if isinstance(ax, Axes):
+        return [ax]
+    axes = list(np.ravel(np.asarray(ax, dtype=object)))
     if len(axes) != len(units) or not all(isinstance(a, Axes) for a in axes):
         raise MechnetError(f"plot(ax=...): the names have {len(units)} unit(s) ({', '.join(units)}), each drawn "
                            f"in its own axes: pass {len(units)} matplotlib Axes (got {ax!r:.80}), or leave ax "

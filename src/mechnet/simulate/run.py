@@ -35,7 +35,8 @@ ADAMS_PROBE_STEPS = 4096        # steps per output interval Adams may take under
 STIFF_GAIN = 8                   # BDF's steps below the probe budget / STIFF_GAIN: stiff (else a long interval)
 STIFF_SHARE = 0.1                # of an Adams call's steps failing to converge: stiff (measured: stiff scenes
 STIFF_MIN_STEPS = 200            # 0.36, the examples at most 0.036, examples/drive_line.py)
-ATOL_RESOLVED = 1e-14            # (per unit of nominal) an atol below this is named when a run fails
+ATOL_RESOLVED = 1e-14
+UNRECORDED = np.array([False])   # `_attempt(points, keep)` of a piece whose end is not an output            # (per unit of nominal) an atol below this is named when a run fails
 
 
 class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
@@ -46,6 +47,7 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         self.choice = choice
         self.settings = (choice.plugin, choice.options, rtol, atol, max_steps)
         self._probing = choice.fallback is not None
+        self._pending = None                           # a method switch not yet stamped with its time
         self._use(dae)
         self.T, self.X, self.Z, self.D = [], [], [], []
         self.events: list[Event] = []
@@ -61,10 +63,10 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         self.xn = np.array(dae.x_nominal, dtype=float)
         self.zn = np.array(dae.z_nominal, dtype=float)
 
-    def _integrators(self, dae) -> Integrators:
-        plugin, extra, rtol, atol, max_steps = self.settings
-        if self._probing:
-            max_steps = min(max_steps, ADAMS_PROBE_STEPS)
+    def _integrators(self, dae, max_steps=None) -> Integrators:
+        plugin, extra, rtol, atol, limit = self.settings
+        if max_steps is None:
+            max_steps = min(limit, ADAMS_PROBE_STEPS) if self._probing else limit
         return Integrators(self.cm, dae, plugin, extra, rtol, atol, max_steps, self.plan)
 
     def _record(self, t):
@@ -252,9 +254,11 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         Under method="auto" an ODE starts with Adams' functional iteration, which stiffness defeats: its
         steps shrink to the fast time scale and fail to converge on a good share of them (a 1e8 N/m
         spring-damper on 1 g: 2.7e6 failures in 7.4e6 steps and 30 s, where BDF takes 372 steps). So
-        Adams runs on a step budget of ADAMS_PROBE_STEPS per output interval; a failed Adams call
-        (other than on a budget a monitored piece set itself) is retried with BDF (`_fall_back`), and
-        a successful one whose iteration failed on STIFF_SHARE of its steps hands the rest to BDF."""
+        Adams runs on a step budget of ADAMS_PROBE_STEPS per output interval, and a failed Adams call
+        (other than on a budget a monitored piece set itself) is decided by `_after_adams_failed`; a
+        successful one whose iteration failed on STIFF_SHARE of its steps hands the rest to BDF."""
+        if self._pending is not None:            # a switch takes effect with the first call that uses it
+            self._record_switch(t0)
         F = get()
         try:
             out = call(F, xs, zs, p)
@@ -262,52 +266,64 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
             code = solver_message(str(exc))
             if self.choice.fallback is None or (budgeted and code.endswith("TOO_MUCH_WORK")):
                 raise
-            return self._after_adams_failed(code, t0, h, get, xs, zs, p)
+            return self._after_adams_failed(code, t0, get, xs, zs, p)
         if self.choice.fallback is not None:
             s = F.stats()
             steps, failures = int(s.get("nsteps", 0)), int(s.get("nncfails", 0))
             if steps >= STIFF_MIN_STEPS and failures >= STIFF_SHARE * steps:
-                self._fall_back(t0 + h, f"stiff: Adams' functional iteration failed to converge on {failures} "
-                                        f"of {steps} steps")
+                self._switch("cvodes-bdf", None, f"stiff: Adams' functional iteration failed to converge on "
+                                                 f"{failures} of {steps} steps")
         return F, out
 
-    def _after_adams_failed(self, code, t0, h, get, xs, zs, p):
-        """The Adams call of `_call` failed with solver code `code`: the call again with BDF. When Adams
-        ran out of its probe budget but BDF needs about as many steps per output interval (or runs out
-        too), the intervals were long, not stiff: Adams again, without the probe budget."""
+    def _after_adams_failed(self, code, t0, get, xs, zs, p):
+        """The Adams call of `_call` failed with solver code `code`: the call again with BDF. When Adams ran
+        out of its probe budget, BDF gets 1/STIFF_GAIN of it: if that is enough, the scene is stiff and
+        BDF goes on; if BDF runs out too, the output intervals were long, not stiff, and Adams takes the
+        call again without the probe budget. Any other failure goes to BDF for good."""
+        if not (self._probing and code.endswith("TOO_MUCH_WORK")):
+            self._switch("cvodes-bdf", None, f"Adams failed ({code})")
+            self._record_switch(t0)
+            F = get()
+            return F, call(F, xs, zs, p)
         probe = self.integrators.max_steps
-        self._fall_back(t0, f"Adams failed ({code}) before t = {t0 + h:.6g} s; BDF from the call's start")
-        F = get()
+        adams = self.choice
+        self.choice = MethodChoice("cvodes-bdf", adams.reason)
+        self.settings = (self.choice.plugin, self.choice.options, *self.settings[2:])
+        self.integrators = self._integrators(self.dae, max(1, probe // STIFF_GAIN))
         try:
+            F = get()
             out = call(F, xs, zs, p)
         except RuntimeError as again:
-            if not (code.endswith("TOO_MUCH_WORK") and solver_message(str(again)).endswith("TOO_MUCH_WORK")):
+            if not solver_message(str(again)).endswith("TOO_MUCH_WORK"):
+                self._switch("cvodes-bdf", None, f"Adams failed ({code}), and BDF after it")
+                self._record_switch(t0)
                 raise
-            out, per_interval = None, float("inf")
-        else:
-            per_interval = int(F.stats().get("nsteps", 0)) / max(F.size2_out(0), 1)
-        if code.endswith("TOO_MUCH_WORK") and per_interval * STIFF_GAIN > probe:
-            self._switch("cvodes-adams", "cvodes-bdf", t0 if out is None else t0 + h,
-                         f"not stiff: BDF took {per_interval:.0f} steps per output interval where Adams ran "
-                         f"out of {probe} in one (long intervals); Adams from here without the probe budget")
-            if out is None:
-                F = get()
-                out = call(F, xs, zs, p)
+            self.choice = adams
+            self._switch("cvodes-adams", "cvodes-bdf", f"Adams ran out of its probe budget ({probe} steps per "
+                                                       f"output interval) and BDF of {probe // STIFF_GAIN}: long "
+                                                       f"intervals, not stiffness; Adams without the probe budget")
+            self._record_switch(t0)
+            F = get()
+            return F, call(F, xs, zs, p)
+        self._switch("cvodes-bdf", None, f"stiff: Adams ran out of its probe budget ({probe} steps per output "
+                                         f"interval) where BDF needed at most {probe // STIFF_GAIN}")
+        self._record_switch(t0)
         return F, out
 
-    def _fall_back(self, t, why):
-        """From time t on, the run integrates with BDF (stiffness: `_call`)."""
-        self._switch(self.choice.fallback, None, t, why)
-
-    def _switch(self, method, fallback, t, why):
-        """Integrate with `method` from time t on (falling back to `fallback` on stiffness), recorded as a
-        "method" event. Adams probes on a budget of ADAMS_PROBE_STEPS only until the first switch."""
-        old = self.choice.method
+    def _switch(self, method, fallback, why):
+        """Integrate with `method` from the next call on (falling back to `fallback` on stiffness); the
+        "method" event is stamped with that call's start (`_record_switch`). Adams probes on a budget of
+        ADAMS_PROBE_STEPS only until the first switch."""
+        self._pending = (self.stats["method"], method, why)
         self.choice = MethodChoice(method, self.choice.reason, fallback)
         self._probing = False
         self.settings = (self.choice.plugin, self.choice.options, *self.settings[2:])
         self.integrators = self._integrators(self.dae)
-        cause = f"{old} -> {method} at t = {t:.6g} s: {why}"
+
+    def _record_switch(self, t):
+        old, method, why = self._pending
+        self._pending = None
+        cause = f"{old} -> {method} at t = {t:.6g} s: {why}" if old != method else f"{method} at t = {t:.6g} s: {why}"
         self.events.append(Event(float(t), "method", cause))
         self.stats["method"] = method
         self.stats["method_reason"] += f"; {cause}"
@@ -354,6 +370,7 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
             except MechnetError:
                 pass
         a, chunk = 0, max(1, n // 2)
+        t_state, t_fail = points[0], points[-1]
         while a < n:
             b = min(a + chunk, n)
             ok, text = self._attempt(points[a: b + 1], None if keep is None else keep[a: b])
@@ -361,36 +378,44 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
                 a = b
                 continue
             solver = solver_message(text)
-            if b - a == 1:
-                break
-            chunk = max(1, (b - a) // 2)
+            if b - a > 1:
+                chunk = max(1, (b - a) // 2)
+                continue
+            t_state, t_fail, solver = self._close_in(points[a], points[a + 1], solver)
+            break
         if a == n:
             return True                                # every piece integrated: no failure after all
-        t_fail = points[min(a + 1, n)]
-        if self.T[-1] != points[a]:
-            self._record(points[a])               # an unrecorded piece end: the partial result ends there
-        if a < n:
-            lo, hi = points[a], points[a + 1]
-            for _ in range(3):
-                pieces = np.linspace(lo, hi, 9)
-                j = 0
-                while j < 8:
-                    ok, text = self._attempt(pieces[j: j + 2])
-                    if not ok:
-                        solver = solver_message(text)
-                        break
-                    j += 1
-                lo, hi = pieces[j], pieces[min(j + 1, 8)]
-            t_fail = hi
+        if self.T[-1] != t_state:
+            self._record(t_state)                 # an unrecorded piece end: the partial result ends there
         t_good = self.T[-1]
         step = self.stats.get("hlast", float("nan"))
         worst = _worst_variable(self.dae, t_good, self.x, self.z, self._u_at(t_good), self.p, self.d, self.xn)
+        where = f"between t = {t_good:.6g} s and {t_fail:.6g} s" if t_fail > t_good else \
+            f"at t = {t_good:.6g} s, the end of an output interval it had to cross in pieces"
         self.failure = IntegrationError(
-            f"integration failed between t = {t_good:.6g} s and {t_fail:.6g} s (last step size {step:.3g} s); "
+            f"integration failed {where} (last step size {step:.3g} s); "
             f"worst variable: {worst}; solver: {solver}{self._advice(solver)}. The result holds the solution "
             f"up to t = {t_good:.6g} s", t=float(t_good), step=step, worst=worst, solver_message=solver)
         self.stats["failed_at"] = float(t_good)
         return False
+
+    def _close_in(self, t0, t1, solver):
+        """Integrate [t0, t1], whose one call failed, in eighths, three times closer to the failure:
+        (time the state reached, time of the failure, solver code). When the first eight pieces all pass,
+        the call had simply run out of its step budget (max_steps counts per output interval, as SUNDIALS
+        does): the run stops at t1, which the state reached."""
+        lo, hi = t0, t1
+        for _ in range(3):
+            pieces = np.linspace(lo, hi, 9)
+            for j in range(8):
+                ok, text = self._attempt(pieces[j: j + 2], UNRECORDED)
+                if not ok:
+                    solver = solver_message(text)
+                    break
+            else:
+                return hi, hi, solver
+            lo, hi = pieces[j], pieces[j + 1]
+        return lo, hi, solver
 
 
 def _split_intervals(points, keep, longest) -> tuple[np.ndarray, np.ndarray]:

@@ -83,6 +83,7 @@ class Integrators:
     def get(self, tau: tuple, max_steps: int | None = None):
         """Integrator over a normalised grid (t = t0 + τ·h): reusable for every segment of that pattern.
         `max_steps` lowers the step limit of this call (a power of two, so few variants are built)."""
+        max_steps = max_steps if max_steps and max_steps < self.max_steps else None   # one key per budget in force
         return self._cached(self.base_key + (tau, max_steps), lambda: self._build(tau, max_steps=max_steps))
 
     def get_real(self, points: tuple):
@@ -126,7 +127,7 @@ class Integrators:
             spec["alg"] = dae.alg(*args)
             if sym is ca.SX:              # ode and alg share the loop's trigonometry: one elimination for both
                 spec["ode"], spec["alg"] = ca.cse([spec["ode"], spec["alg"]])
-        opts = dict(self.extra, reltol=self.rtol, abstol=self.atol, max_num_steps=min(max_steps or self.max_steps, self.max_steps),
+        opts = dict(self.extra, reltol=self.rtol, abstol=self.atol, max_num_steps=max_steps or self.max_steps,
                     disable_internal_warnings=True, show_eval_warnings=False)
         opts["common_options"] = jacobian_options(dae, self.plugin, self.extra)
         if self.plugin == "idas":
