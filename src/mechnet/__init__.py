@@ -3,18 +3,21 @@ from .compile import CompiledModel, CompileOptions
 from .core import (Across, Component, Connector, Eq, Input, Model, Output, Param, Port, State, Through, Var,
                    When, der, nonnegative, positive, time, tunable)
 from .core.errors import (ConnectError, FrozenModelError, HigherIndexError, InitializationError,
-                          IntegrationError, InputError, MechnetError, NameConflictError, ParameterError, SceneError,
-                          StructureError, UnbalancedModelError, UnknownNameError)
+                          IntegrationError, InputError, MechnetError, NameConflictError, OcpError, ParameterError,
+                          SceneError, StructureError, UnbalancedModelError, UnknownNameError)
 from .kinematics import kinematics
 from .simulate import IntegrationWarning, Result
+from . import ocp  # noqa: E402 - mechnet.ocp, after the core it builds on
 
 __version__ = "0.1.0"
 
 __all__ = ["Across", "CompileOptions", "CompiledModel", "Component", "ConnectError", "Connector", "Eq",
            "FrozenModelError", "HigherIndexError", "InitializationError", "Input", "InputError",
-           "IntegrationError", "IntegrationWarning", "MechnetError", "Model", "NameConflictError", "Output",
+           "IntegrationError", "IntegrationWarning", "MechnetError", "Model", "NameConflictError", "OcpError",
+           "Output",
            "Param", "ParameterError", "Port", "Result", "SceneError", "State", "StructureError", "Through",
            "UnbalancedModelError", "UnknownNameError", "Var", "When", "compile", "der", "kinematics", "nonnegative",
+           "ocp",
            "positive", "time", "tunable"]
 
 

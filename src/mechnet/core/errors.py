@@ -63,3 +63,7 @@ class IntegrationError(MechnetError):
 
 class SceneError(MechnetError):
     """A scene file that cannot be loaded (missing build(), build() not returning a Model)."""
+
+
+class OcpError(MechnetError):
+    """An optimal control problem that cannot be posed as given (mechnet.ocp)."""

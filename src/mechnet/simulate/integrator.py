@@ -36,14 +36,14 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
              continue_from: Result | None = None) -> Result:
     """Integrate the compiled model from `t_start` to `t_end`.
 
-    `start` fixes values (any dotted name), `guess` only seeds the Newton
-    iteration; `inputs` maps input names to numbers, callables f(t) (sampled: jumps are smeared), (times,
-    values) pairs or N×2 arrays (a time given twice is a jump), or a `Table`/`Signal` (exact, its knots
-    time events). `method="auto"`: CVODES Adams for an explicit ODE, BDF from the first sign of
-    stiffness on; IDAS for a DAE (`res.stats["method"]`, `res.stats["method_reason"]`). `steady_state=True` starts from der(x) = 0
-    (every state; fixed start values then over-specify). `progress=None` shows a bar when a long grid
-    (≥ 1000 points) takes more than a second. A solver failure returns the
-    partial result with `result.failure` set (and a warning); it does not raise.
+    `start` fixes values (any dotted name), `guess` only seeds the Newton iteration. `inputs` maps input
+    names to numbers, callables f(t) (sampled: jumps are smeared), (times, values) pairs or N×2 arrays (a
+    time given twice is a jump), or a `Table`/`Signal` (exact, its knots time events).
+    `method="auto"`: CVODES Adams for an explicit ODE, BDF from the first sign of stiffness on; IDAS for
+    a DAE (`res.stats["method"]`, `res.stats["method_reason"]`). `steady_state=True` starts from
+    der(x) = 0 (every state; fixed start values then over-specify). `progress=None` shows a bar when a
+    long grid (≥ 1000 points) takes more than a second. A solver failure returns the partial result with
+    `result.failure` set (and a warning); it does not raise.
     `continue_from=res` continues a run: it starts at res's final time from its
     final states (fixed) with every other final value as a guess, so dependent
     coordinates stay on their branch; the components' own start values do not apply.

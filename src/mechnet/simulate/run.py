@@ -35,8 +35,8 @@ ADAMS_PROBE_STEPS = 4096        # steps per output interval Adams may take under
 STIFF_GAIN = 8                   # BDF's steps below the probe budget / STIFF_GAIN: stiff (else a long interval)
 STIFF_SHARE = 0.1                # of an Adams call's steps failing to converge: stiff (measured: stiff scenes
 STIFF_MIN_STEPS = 200            # 0.36, the examples at most 0.036, examples/drive_line.py)
-ATOL_RESOLVED = 1e-14
-UNRECORDED = np.array([False])   # `_attempt(points, keep)` of a piece whose end is not an output            # (per unit of nominal) an atol below this is named when a run fails
+ATOL_RESOLVED = 1e-14            # (per unit of nominal) an atol below this is named when a run fails
+UNRECORDED = np.array([False])   # `_attempt(points, keep)` of a piece whose end is not an output
 
 
 class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):

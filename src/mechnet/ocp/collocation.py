@@ -1,0 +1,142 @@
+"""Direct collocation on the index-reduced DAE, algebraic equations included.
+
+On each of N intervals the states are a polynomial of degree `degree` through the interval's start and
+its collocation points (Radau or Legendre); the ODE holds at the collocation points, the algebraic
+equations (a loop's dependent coordinates) at the collocation points, at t = 0 and at the end. Path
+constraints and bounds on named quantities are enforced at t = 0 and at every collocation point;
+bounds on states and inputs are bounds of the decision variables themselves. Integrals use the
+collocation quadrature. The states are the start point's selection (`cm.dae`); `Solution.verify`
+checks it held.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from .problem import OcpError
+from .transcription import Nlp, Transcription, guess_trajectory
+
+
+def coefficients(degree: int, scheme: str):
+    """(tau, C, D, B): collocation times in [0, 1] with 0 first; C[r, j] the derivative at tau_j of the
+    Lagrange polynomial through tau_r; D[r] its value at 1; B[r] its integral over [0, 1]."""
+    tau = np.array([0.0] + list(ca.collocation_points(degree, scheme)))
+    n = tau.size
+    C, D, B = np.zeros((n, n)), np.zeros(n), np.zeros(n)
+    for r in range(n):
+        poly = np.poly1d([1.0])
+        for k in range(n):
+            if k != r:
+                poly *= np.poly1d([1.0, -tau[k]]) / (tau[r] - tau[k])
+        D[r] = poly(1.0)
+        C[r] = np.polyder(poly)(tau)
+        B[r] = np.polyint(poly)(1.0)
+    return tau, C, D, B
+
+
+class Collocation(Transcription):
+    """`Collocation(N=50, degree=3, scheme="radau" | "legendre", controls="constant" | "linear")`."""
+
+    def __init__(self, N: int, degree: int = 3, scheme: str = "radau", controls: str = "constant",
+                 hessian: str | None = None):
+        super().__init__(N, controls, hessian)
+        from ..core.arguments import whole_number
+        self.degree = whole_number(degree, "degree", 1)
+        if scheme not in ("radau", "legendre"):
+            raise OcpError(f"scheme = {scheme!r}: choose 'radau' or 'legendre'")
+        self.scheme = scheme
+
+    def transcribe(self, prob, guess):
+        dae = prob.dae
+        N, d = self.N, self.degree
+        tau, C, D, B = coefficients(d, self.scheme)
+        nx_, nz, nu = dae.x.numel(), dae.z.numel(), dae.u.numel()
+        xn = np.array(dae.x_nominal, dtype=float) if nx_ else np.zeros(0)
+        zn = np.array(dae.z_nominal, dtype=float) if nz else np.zeros(0)
+        nlp = Nlp()
+        T = self.final_time(prob, nlp)
+        p, p_free = self.parameters(prob, nlp)
+        d_values = ca.DM(list(dae.d_value)) if dae.d.numel() else ca.DM(0, 1)
+        h = T / N
+        x0, z0, u0 = self.start_point(prob)
+        T_guess = float(np.mean(prob.t_bounds))
+        grid = np.array([(k + tj) * T_guess / N for k in range(N) for tj in tau] + [T_guess])
+        Xg, Zg, Ug = guess_trajectory(prob, guess, grid, x0, z0, u0)
+        xlo, xhi = self.state_bounds(prob)
+        ulo, uhi = self.input_bounds(prob)
+        n_nodes = N + 1 if self.controls == "linear" else N
+        U = [nlp.variable(f"U_{k}", nu, Ug[min(k * (d + 1), len(grid) - 1)], ulo, uhi, 1.0) for k in range(n_nodes)]
+
+        def control(k, s):
+            return U[k] if self.controls == "constant" else U[k] + s * (U[k + 1] - U[k])
+
+        def at_point(fn, t, x, z, u):
+            return fn(t, x, z, u, p, d_values, T)
+
+        X = nlp.variable("X_0", nx_, Xg[0], xlo, xhi, xn)
+        Zs = nlp.variable("Z_start", nz, Zg[0], -np.inf, np.inf, zn)
+        starts = self.start_value_fn(0.0, X, Zs, control(0, 0.0), p, d_values)
+        nlp.constrain(starts - ca.DM(self.start_values), 0.0, 0.0, [f"start value {n}" for n in self.start_names], 0.0)
+        if nz:
+            nlp.constrain(dae.alg(0.0, X, Zs, control(0, 0.0), p, d_values), 0.0, 0.0, _alg_labels(dae), 0.0)
+        self._path(nlp, at_point(self.path_fn, 0.0, X, Zs, control(0, 0.0)), 0.0)
+        start_values = at_point(self.start_fn, 0.0, X, Zs, control(0, 0.0))
+        integrals = 0
+        read = {"t": [ca.MX(0.0)], "x": [X], "z": [Zs], "u": [control(0, 0.0)]}
+        for k in range(N):
+            Xc, Zc = [], []
+            for j in range(1, d + 1):
+                i = k * (d + 1) + j
+                Xc.append(nlp.variable(f"X_{k}_{j}", nx_, Xg[i], xlo, xhi, xn))
+                Zc.append(nlp.variable(f"Z_{k}_{j}", nz, Zg[i], -np.inf, np.inf, zn))
+            points = [X] + Xc
+            for j in range(1, d + 1):
+                t_j = (k + tau[j]) * h
+                u_j = control(k, tau[j])
+                slope = sum(C[r, j] * points[r] for r in range(d + 1))
+                rate = dae.ode(t_j, Xc[j - 1], Zc[j - 1], u_j, p, d_values)
+                nlp.constrain((h * rate - slope) / ca.DM(xn) if nx_ else ca.MX(0, 1), 0.0, 0.0,
+                              [f"der({n})" for n in dae.x_names], (k + tau[j]) / N)
+                if nz:
+                    nlp.constrain(dae.alg(t_j, Xc[j - 1], Zc[j - 1], u_j, p, d_values), 0.0, 0.0,
+                                  _alg_labels(dae), (k + tau[j]) / N)
+                self._path(nlp, at_point(self.path_fn, t_j, Xc[j - 1], Zc[j - 1], u_j), (k + tau[j]) / N)
+                integrals = integrals + h * B[j] * at_point(self.integrand_fn, t_j, Xc[j - 1], Zc[j - 1], u_j)
+                read["t"].append(t_j)
+                read["x"].append(Xc[j - 1])
+                read["z"].append(Zc[j - 1])
+                read["u"].append(u_j)
+            end = sum(D[r] * points[r] for r in range(d + 1))
+            X = nlp.variable(f"X_{k + 1}", nx_, Xg[(k + 1) * (d + 1) if k + 1 < N else -1], xlo, xhi, xn)
+            nlp.constrain((end - X) / ca.DM(xn) if nx_ else ca.MX(0, 1), 0.0, 0.0,
+                          [f"continuity of {n}" for n in dae.x_names], (k + 1) / N)
+        u_end = control(N - 1, 1.0)
+        Ze = nlp.variable("Z_end", nz, Zg[-1], -np.inf, np.inf, zn)
+        if nz:
+            nlp.constrain(dae.alg(T, X, Ze, u_end, p, d_values), 0.0, 0.0, _alg_labels(dae), 1.0)
+        end_values = at_point(self.end_fn, T, X, Ze, u_end)
+        if self.scheme == "legendre":           # the end is not a collocation point: add it to the output
+            read["t"].append(T)
+            read["x"].append(X)
+            read["z"].append(Ze)
+            read["u"].append(u_end)
+        boundary = self.boundary_function(prob)(start_values, end_values,
+                                                integrals if isinstance(integrals, ca.MX) else ca.MX(0, 1),
+                                                T, p_free)
+        nlp.constrain(boundary[1:], [c.lower for c in prob.point], [c.upper for c in prob.point],
+                      [c.label for c in prob.point], 1.0)
+        layout = {"objective": boundary[0], "read": ["t", "x", "z", "u", "U", "T", "p"],
+                  "t": ca.horzcat(*read["t"]), "x": ca.horzcat(*read["x"]), "z": ca.horzcat(*read["z"]),
+                  "u": ca.horzcat(*read["u"]), "U": ca.horzcat(*U), "T": T, "p": p}
+        return nlp, layout
+
+    def _path(self, nlp, values, t):
+        if values.numel():
+            nlp.constrain(values, self.path_lower, self.path_upper, self.path_labels, t)
+
+    def node_times(self, T):
+        return np.linspace(0.0, T, self.N + 1)
+
+
+def _alg_labels(dae):
+    return [f"algebraic equation for {n}" for n in dae.z_names]

@@ -1,0 +1,222 @@
+"""An optimal control problem on a compiled model, described apart from how it is transcribed.
+
+Expressions are CasADi expressions of placeholders: `prob.var("cart.s")` stands for a named quantity
+along the path (any dotted name of the model: a state, an algebraic, an input, an observed frame
+position or cut force, a tunable parameter), `prob.at_start(e)`/`prob.at_end(e)` for a path
+expression's value at either end, `prob.integral(e)` for its integral over the horizon and
+`prob.t_final` for the final time. A transcription (`collocation.py`, `shooting.py`) evaluates the
+placeholders on its own grid, so the same problem is solved by either method (as in rockit).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..core.declarations import finite_number, not_a_number
+from ..core.errors import OcpError
+from ..simulate.result import unknown_name
+
+
+def _bound(value, default, what) -> float:
+    """A bound: a number or ±inf (None: no bound)."""
+    if value is None:
+        return default
+    if not_a_number(value):
+        raise OcpError(f"{what} = {value!r} is not a number")
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise OcpError(f"{what} = {value!r} is not a number") from None
+    if math.isnan(number):
+        raise OcpError(f"{what} is NaN")
+    return number
+
+
+@dataclass(frozen=True)
+class Constraint:
+    expr: ca.SX            # scalar
+    lower: float
+    upper: float
+    label: str             # what the user wrote, for reports
+
+
+class Problem:
+    """`Problem(cm, t_final=T)` or `t_final=(lower, upper)` for a free final time. The controls are the
+    model's inputs; `start={name: value}` adds fixed start values to the model's own (as in simulate)."""
+
+    def __init__(self, cm, t_final, *, start: dict | None = None, params: dict | None = None):
+        from ..compile.compiled import CompiledModel
+        if not isinstance(cm, CompiledModel):
+            raise OcpError(f"Problem takes a compiled model (Model.compile()), got {type(cm).__name__}")
+        self.cm, self.dae = cm, cm.dae
+        if not self.dae.u_names:
+            raise OcpError(f"model {cm.name!r} has no inputs to optimise: add an input component such as "
+                           f"rot.Torque(name='motor') (its input 'motor.tau' becomes a control)")
+        self.t_final = ca.SX.sym("t_final")
+        self.time = ca.SX.sym("t")
+        if isinstance(t_final, (tuple, list)):
+            if len(t_final) != 2:
+                raise OcpError(f"t_final = {t_final!r}: give a time, or (lower, upper) bounds of a free final time")
+            lo, hi = (finite_number(v, "t_final bound", OcpError) for v in t_final)
+            if not 0 < lo <= hi:
+                raise OcpError(f"t_final bounds ({lo:g}, {hi:g}) must satisfy 0 < lower <= upper")
+            self.t_bounds = (lo, hi)
+        else:
+            if t_final is None:
+                raise OcpError("a free final time needs bounds: t_final=(lower, upper)")
+            value = finite_number(t_final, "t_final (s)", OcpError)
+            if value <= 0:
+                raise OcpError(f"t_final = {value:g} s must be > 0")
+            self.t_bounds = (value, value)
+        self.start = dict(self.dae.starts)
+        for name, value in (start or {}).items():
+            if name not in self.dae.observed_names:
+                raise unknown_name(name, self.dae.observed_names, "start value for")
+            self.start[name] = finite_number(value, f"start value {name}", OcpError)
+        self.p_value = np.array(self.dae.p_value, dtype=float)
+        for name, value in (params or {}).items():
+            self.p_value[self._parameter(name)] = finite_number(value, f"params[{name!r}]", OcpError)
+        self.free_params: dict[str, tuple[float, float]] = {}
+        self._vars: dict[str, ca.SX] = {}
+        self._boundary: dict[str, tuple[str, ca.SX]] = {}      # placeholder -> (start|end|integral, path expr)
+        self._boundary_syms: dict[str, ca.SX] = {}
+        self.bounds_of: dict[str, tuple[float, float]] = {}
+        self.path: list[Constraint] = []
+        self.point: list[Constraint] = []
+        self.objective = None
+
+    @property
+    def free_time(self) -> bool:
+        return self.t_bounds[0] < self.t_bounds[1]
+
+    # ---- placeholders ----------------------------------------------------------------------------
+
+    def var(self, name: str) -> ca.SX:
+        """The named quantity along the path."""
+        if not isinstance(name, str) or name not in self.dae.observed_names:
+            raise unknown_name(str(name), self.dae.observed_names)
+        if name not in self._vars:
+            self._vars[name] = ca.SX.sym(name)
+        return self._vars[name]
+
+    def at_start(self, expr) -> ca.SX:
+        return self._placeholder("start", expr)
+
+    def at_end(self, expr) -> ca.SX:
+        return self._placeholder("end", expr)
+
+    def integral(self, expr) -> ca.SX:
+        """∫ expr dt over the horizon (quadrature of the transcription's own order)."""
+        return self._placeholder("integral", expr)
+
+    def _placeholder(self, kind, expr):
+        expr = self._scalar(expr, f"{kind}(...)")
+        if ca.depends_on(expr, self._boundary_vector()):
+            raise OcpError(f"{kind}(...) takes an expression along the path (of prob.var(...) and prob.time), "
+                           f"not one holding at_start/at_end/integral")
+        name = f"{kind}_{len(self._boundary)}"
+        sym = ca.SX.sym(name)
+        self._boundary[name] = (kind, expr)
+        self._boundary_syms[name] = sym
+        return sym
+
+    # ---- what is asked -----------------------------------------------------------------------------
+
+    def bounds(self, name: str, lower=-math.inf, upper=math.inf) -> None:
+        """lower <= name <= upper along the whole path (an input, a state, any named quantity), or for a
+        tunable parameter freed by `free_parameter`."""
+        self.var(name)
+        lo, hi = self._pair(lower, upper, f"bounds({name!r})")
+        if name in self.start and not lo <= self.start[name] <= hi:
+            raise OcpError(f"bounds({name!r}, {lo:g}, {hi:g}) cannot hold at t = 0, where the start value fixes "
+                           f"{name} = {self.start[name]:g}")
+        self.bounds_of[name] = lo, hi
+
+    def free_parameter(self, name: str, lower=-math.inf, upper=math.inf) -> None:
+        """Make a tunable parameter (`mn.tunable`) a decision variable within [lower, upper]."""
+        self._parameter(name)
+        self.free_params[name] = self._pair(lower, upper, f"free_parameter({name!r})")
+
+    def subject_to(self, constraint, label: str | None = None) -> None:
+        """`a <= b`, `a >= b` or `a == b` (elementwise for vectors): a path constraint when it holds
+        prob.var(...) or prob.time, else a boundary constraint (at_start, at_end, integral, t_final)."""
+        if isinstance(constraint, (bool, np.bool_)):
+            raise OcpError(f"subject_to({constraint!r}): the comparison was decided in Python (no prob.var(...) "
+                           f"in it); write it with CasADi expressions")
+        if not isinstance(constraint, (ca.SX, ca.MX, ca.DM)):
+            raise OcpError(f"subject_to takes a comparison of expressions such as prob.var('x') <= 1, "
+                           f"got {type(constraint).__name__}")
+        constraint = ca.SX(constraint)
+        for k in range(constraint.numel()):
+            item = constraint[k]
+            text = label or str(item)
+            if item.is_op(ca.OP_LE) or item.is_op(ca.OP_LT):
+                expr, lo, hi = item.dep(0) - item.dep(1), -math.inf, 0.0
+            elif item.is_op(ca.OP_EQ):
+                expr, lo, hi = item.dep(0) - item.dep(1), 0.0, 0.0
+            else:
+                raise OcpError(f"subject_to({text}): not a comparison; write a <= b, a >= b or a == b")
+            self._classify(expr, lo, hi, text)
+
+    def minimize(self, objective) -> None:
+        """The objective: a scalar of at_start/at_end/integral placeholders, t_final and free parameters
+        (Mayer and Lagrange terms)."""
+        objective = self._scalar(objective, "minimize(...)")
+        if ca.depends_on(objective, self._path_vector()):
+            raise OcpError("minimize(...): the objective holds a path quantity (prob.var or prob.time); wrap it "
+                           "in prob.integral(...) or prob.at_end(...)")
+        self.objective = objective
+
+    # ---- helpers -------------------------------------------------------------------------------
+
+    def _classify(self, expr, lo, hi, text):
+        if ca.depends_on(expr, self._path_vector()):
+            if ca.depends_on(expr, self._boundary_vector()):
+                raise OcpError(f"subject_to({text}): mixes path quantities with at_start/at_end/integral")
+            self.path.append(Constraint(expr, lo, hi, text))
+        else:
+            self.point.append(Constraint(expr, lo, hi, text))
+
+    def _scalar(self, expr, what):
+        try:
+            expr = ca.SX(expr)
+        except (NotImplementedError, TypeError, RuntimeError):
+            raise OcpError(f"{what}: {expr!r:.60} is not a CasADi expression") from None
+        if expr.numel() != 1:
+            raise OcpError(f"{what}: the expression must be a scalar, got shape {expr.shape}")
+        return expr
+
+    def _pair(self, lower, upper, what):
+        lo, hi = _bound(lower, -math.inf, f"{what} lower"), _bound(upper, math.inf, f"{what} upper")
+        if lo > hi:
+            raise OcpError(f"{what}: lower bound {lo:g} is above upper bound {hi:g}")
+        return lo, hi
+
+    def _parameter(self, name):
+        if name not in self.dae.p_names:
+            folded = name in self.dae.info.get("folded_parameters", ())
+            if folded:
+                raise OcpError(f"parameter {name!r} was folded at compile time; declare it mn.tunable(...) to "
+                               f"change or optimise it")
+            raise unknown_name(name, self.dae.p_names, "tunable parameter")
+        return self.dae.p_names.index(name)
+
+    def _path_vector(self):
+        return ca.vertcat(self.time, *self._vars.values())
+
+    def _boundary_vector(self):
+        return ca.vertcat(*self._boundary_syms.values()) if self._boundary_syms else ca.SX(0, 1)
+
+    def solve(self, method, *, guess=None, ipopt: dict | None = None, progress=None, verbose=False):
+        """Transcribe with `method` (`Collocation(...)`, `MultipleShooting(...)`) and solve with IPOPT.
+        `guess`: a Result of a simulation, a previous Solution, or None (interpolation between the
+        start values and constant inputs)."""
+        from .transcription import Transcription
+        if self.objective is None:
+            raise OcpError("no objective: call prob.minimize(...) first")
+        if not isinstance(method, Transcription):
+            raise OcpError(f"solve takes Collocation(...) or MultipleShooting(...), got {type(method).__name__}")
+        return method.solve(self, guess=guess, ipopt=ipopt or {}, progress=progress, verbose=verbose)

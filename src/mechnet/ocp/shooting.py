@@ -1,0 +1,124 @@
+"""Multiple shooting: one integrator call per interval, continuity at the nodes.
+
+The states at the N + 1 nodes (and a DAE's algebraic variables there) are decision variables; each
+interval is integrated by SUNDIALS (CVODES for an ODE, IDAS for a DAE) or a fixed-step Runge-Kutta,
+with CasADi's forward and adjoint sensitivities for exact first derivatives. Integrals ride along as
+quadratures. Path constraints and bounds on named quantities are enforced at the nodes; state and
+input bounds bind the decision variables. The Hessian is limited-memory by default: an exact one
+needs second-order sensitivities of every interval.
+"""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from .problem import OcpError
+from .transcription import Nlp, Transcription, guess_trajectory
+
+INTEGRATORS = ("cvodes", "idas", "rk")
+
+
+class MultipleShooting(Transcription):
+    """`MultipleShooting(N=50, integrator="cvodes" | "idas" | "rk", rtol=1e-8, atol=1e-10, steps=4,
+    controls="constant" | "linear")`; `steps`: Runge-Kutta steps per interval for "rk"."""
+
+    default_hessian = "limited-memory"
+
+    def __init__(self, N: int, integrator: str = "cvodes", controls: str = "constant", hessian: str | None = None,
+                 rtol: float = 1e-8, atol: float = 1e-10, steps: int = 4):
+        super().__init__(N, controls, hessian)
+        from ..core.arguments import whole_number
+        from ..core.declarations import finite_number
+        if integrator not in INTEGRATORS:
+            raise OcpError(f"integrator = {integrator!r}: choose one of {', '.join(INTEGRATORS)}")
+        self.integrator = integrator
+        self.rtol = finite_number(rtol, "rtol", OcpError)
+        self.atol = finite_number(atol, "atol", OcpError)
+        self.steps = whole_number(steps, "steps (Runge-Kutta steps per interval)", 1)
+
+    def _interval(self, prob):
+        """F(x0, z0, p = [u_a; u_b; p; d; t0; h; T]) -> xf, zf, qf over one interval (time normalised).
+        The quadratures are under error control: without it CVODES's sensitivities of an integral were
+        wrong (d/du_a of ∫u² over an interval with linear controls: 0.424 where 0.333 is right), and
+        IPOPT stalled on the inconsistent gradient."""
+        dae = prob.dae
+        if dae.z.numel() and self.integrator == "cvodes":
+            raise OcpError(f"integrator 'cvodes' needs an explicit ODE, but model {prob.cm.name!r} keeps algebraic "
+                           f"variables ({', '.join(dae.z_names[:3])}); use integrator='idas'")
+        if dae.z.numel() and self.integrator == "rk":
+            raise OcpError("integrator 'rk' takes an explicit ODE; use integrator='idas' for this DAE")
+        x, z = ca.SX.sym("x", dae.x.numel()), ca.SX.sym("z", dae.z.numel())
+        nu = dae.u.numel()
+        ua, ub = ca.SX.sym("ua", nu), ca.SX.sym("ub", nu)
+        p, d = ca.SX.sym("p", dae.p.numel()), ca.SX.sym("d", dae.d.numel())
+        t0, h, s = ca.SX.sym("t0"), ca.SX.sym("h"), ca.SX.sym("s")
+        T = ca.SX.sym("T")
+        u = ua if self.controls == "constant" else ua + s * (ub - ua)
+        t = t0 + s * h
+        spec = {"x": x, "t": s, "p": ca.vertcat(ua, ub, p, d, t0, h, T), "ode": h * dae.ode(t, x, z, u, p, d)}
+        integrand = self.integrand_fn(t, x, z, u, p, d, T)
+        if integrand.numel():
+            spec["quad"] = h * integrand
+        if dae.z.numel():
+            spec["z"], spec["alg"] = z, dae.alg(t, x, z, u, p, d)
+        plugin = {"cvodes": "cvodes", "idas": "idas", "rk": "rk"}[self.integrator]
+        opts = {"number_of_finite_elements": self.steps} if plugin == "rk" else \
+            {"reltol": self.rtol, "abstol": self.atol, "quad_err_con": True, "disable_internal_warnings": True,
+             "show_eval_warnings": False}
+        return ca.integrator("interval", plugin, spec, 0.0, 1.0, opts)
+
+    def transcribe(self, prob, guess):
+        dae = prob.dae
+        N = self.N
+        nx_, nz, nu = dae.x.numel(), dae.z.numel(), dae.u.numel()
+        xn = np.array(dae.x_nominal, dtype=float) if nx_ else np.zeros(0)
+        zn = np.array(dae.z_nominal, dtype=float) if nz else np.zeros(0)
+        F = self._interval(prob)
+        nlp = Nlp()
+        T = self.final_time(prob, nlp)
+        p, p_free = self.parameters(prob, nlp)
+        d_values = ca.DM(list(dae.d_value)) if dae.d.numel() else ca.DM(0, 1)
+        h = T / N
+        x0, z0, u0 = self.start_point(prob)
+        grid = np.linspace(0.0, float(np.mean(prob.t_bounds)), N + 1)
+        Xg, Zg, Ug = guess_trajectory(prob, guess, grid, x0, z0, u0)
+        xlo, xhi = self.state_bounds(prob)
+        ulo, uhi = self.input_bounds(prob)
+        n_nodes = N + 1 if self.controls == "linear" else N
+        U = [nlp.variable(f"U_{k}", nu, Ug[k], ulo, uhi, 1.0) for k in range(n_nodes)]
+        X = [nlp.variable(f"X_{k}", nx_, Xg[k], xlo, xhi, xn) for k in range(N + 1)]
+        Z = [nlp.variable(f"Z_{k}", nz, Zg[k], -np.inf, np.inf, zn) for k in range(N + 1)]
+
+        def u_at(k):                 # the input at node k (from the left at the end)
+            return U[min(k, n_nodes - 1)]
+        starts = self.start_value_fn(0.0, X[0], Z[0], u_at(0), p, d_values)
+        nlp.constrain(starts - ca.DM(self.start_values), 0.0, 0.0, [f"start value {n}" for n in self.start_names], 0.0)
+        integrals = 0
+        for k in range(N + 1):
+            t_k = k * h
+            if nz:
+                nlp.constrain(dae.alg(t_k, X[k], Z[k], u_at(k), p, d_values), 0.0, 0.0,
+                              [f"algebraic equation for {n}" for n in dae.z_names], k / N)
+            values = self.path_fn(t_k, X[k], Z[k], u_at(k), p, d_values, T)
+            if values.numel():
+                nlp.constrain(values, self.path_lower, self.path_upper, self.path_labels, k / N)
+            if k == N:
+                break
+            ub = U[k + 1] if self.controls == "linear" else U[k]
+            out = F(x0=X[k], z0=Z[k], p=ca.vertcat(U[k], ub, p, d_values, t_k, h, T))
+            nlp.constrain((out["xf"] - X[k + 1]) / ca.DM(xn), 0.0, 0.0,
+                          [f"continuity of {n}" for n in dae.x_names], (k + 1) / N)
+            if "qf" in F.name_out():
+                integrals = integrals + out["qf"]
+        start_values = self.start_fn(0.0, X[0], Z[0], u_at(0), p, d_values, T)
+        end_values = self.end_fn(T, X[N], Z[N], u_at(N), p, d_values, T)
+        boundary = self.boundary_function(prob)(start_values, end_values,
+                                                integrals if isinstance(integrals, ca.MX) else ca.MX(0, 1),
+                                                T, p_free)
+        nlp.constrain(boundary[1:], [c.lower for c in prob.point], [c.upper for c in prob.point],
+                      [c.label for c in prob.point], 1.0)
+        times = ca.vertcat(*[k * h for k in range(N + 1)]).T
+        layout = {"objective": boundary[0], "read": ["t", "x", "z", "u", "U", "T", "p"], "t": times,
+                  "x": ca.horzcat(*X), "z": ca.horzcat(*Z), "u": ca.horzcat(*[u_at(k) for k in range(N + 1)]),
+                  "U": ca.horzcat(*U), "T": T, "p": p}
+        return nlp, layout

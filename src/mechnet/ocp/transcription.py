@@ -1,0 +1,231 @@
+"""What collocation and multiple shooting share: the problem's placeholders as functions of the model's
+(t, x, z, u, p, d), the NLP's variables with their bounds and scales, and the IPOPT call.
+
+Each transcription fills an `Nlp` (decision variables, constraints with a label and a time each) and
+says how to read the trajectories from its solution; solving, reporting the worst constraint by name
+and time, and building the `Solution` are common.
+"""
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..caches import BUILD_LOCK
+from ..core.errors import InitializationError
+from ..solver_output import captured
+from .problem import OcpError, Problem
+
+
+@dataclass
+class Nlp:
+    """Decision variables (scaled) and constraints, each constraint row labelled (what, time)."""
+
+    w: list = field(default_factory=list)
+    w0: list = field(default_factory=list)
+    lbw: list = field(default_factory=list)
+    ubw: list = field(default_factory=list)
+    g: list = field(default_factory=list)
+    lbg: list = field(default_factory=list)
+    ubg: list = field(default_factory=list)
+    labels: list = field(default_factory=list)
+
+    def variable(self, name, n, guess, lower, upper, scale) -> ca.MX:
+        """A block of n decision variables in scaled form; returns them unscaled (scale · w)."""
+        w = ca.MX.sym(name, n)
+        self.w.append(w)
+        scale = np.broadcast_to(np.asarray(scale, dtype=float), (n,))
+        self.w0.extend(np.broadcast_to(np.asarray(guess, dtype=float), (n,)) / scale)
+        self.lbw.extend(np.broadcast_to(np.asarray(lower, dtype=float), (n,)) / scale)
+        self.ubw.extend(np.broadcast_to(np.asarray(upper, dtype=float), (n,)) / scale)
+        return w * ca.DM(scale)
+
+    def constrain(self, expr, lower, upper, what, t):
+        """Rows lower <= expr <= upper, labelled `what` (one label, or one per row) at the time t given as
+        a share of the horizon (the final time may be a decision variable)."""
+        n = expr.numel()
+        self.g.append(ca.vec(expr))
+        self.lbg.extend(np.broadcast_to(np.asarray(lower, dtype=float), (n,)))
+        self.ubg.extend(np.broadcast_to(np.asarray(upper, dtype=float), (n,)))
+        whats = what if isinstance(what, (list, tuple)) else [what] * n
+        self.labels.extend((w, t) for w in whats)
+
+
+class Transcription:
+    """Base of Collocation and MultipleShooting. `controls`: "constant" or "linear" between nodes;
+    `hessian`: "exact" or "limited-memory"."""
+
+    default_hessian = "exact"
+
+    def __init__(self, N: int, controls: str = "constant", hessian: str | None = None):
+        from ..core.arguments import whole_number
+        self.N = whole_number(N, "N (intervals)", 2)
+        if controls not in ("constant", "linear"):
+            raise OcpError(f"controls = {controls!r}: choose 'constant' (zero-order hold) or 'linear'")
+        self.controls = controls
+        hessian = hessian or self.default_hessian
+        if hessian not in ("exact", "limited-memory"):
+            raise OcpError(f"hessian = {hessian!r}: choose 'exact' or 'limited-memory'")
+        self.hessian = hessian
+
+    # ---- the problem as functions -----------------------------------------------------------
+
+    def prepare(self, prob: Problem):
+        """Functions of (t, x, z, u, p, d) for the path quantities, constraints and integrands."""
+        dae = prob.dae
+        t, x, z, u, p, d = dae.t, dae.x, dae.z, dae.u, dae.p, dae.d
+        names = list(prob._vars)
+        observed = dae.observed(t, x, z, u, p, d)
+        column = {n: k for k, n in enumerate(dae.observed_names)}
+        values = ca.vertcat(*[observed[column[n]] for n in names]) if names else ca.SX(0, 1)
+        path_syms = ca.vertcat(prob.time, *prob._vars.values())
+        T = prob.t_final
+
+        def of_point(exprs):
+            exprs = ca.vertcat(*exprs) if exprs else ca.SX(0, 1)
+            f = ca.Function("f", [path_syms, T], [exprs])
+            return ca.Function("at_point", [t, x, z, u, p, d, T], [f(ca.vertcat(t, values), T)])
+
+        self.path_names = [c.label for c in prob.path]
+        bounded = [(n, lo, hi) for n, (lo, hi) in prob.bounds_of.items()
+                   if n not in dae.x_names and n not in dae.u_names]
+        self.path_fn = of_point([c.expr for c in prob.path] + [prob.var(n) for n, _, _ in bounded])
+        self.path_lower = [c.lower for c in prob.path] + [lo for _, lo, _ in bounded]
+        self.path_upper = [c.upper for c in prob.path] + [hi for _, _, hi in bounded]
+        self.path_labels = self.path_names + [f"bounds on {n}" for n, _, _ in bounded]
+        kinds = {"start": [], "end": [], "integral": []}
+        for sym_name, (kind, expr) in prob._boundary.items():
+            kinds[kind].append((sym_name, expr))
+        self.boundary_order = kinds
+        self.start_fn = of_point([e for _, e in kinds["start"]])
+        self.end_fn = of_point([e for _, e in kinds["end"]])
+        self.integrand_fn = of_point([e for _, e in kinds["integral"]])
+        start_names = list(prob.start)
+        self.start_names = start_names
+        self.start_values = [prob.start[n] for n in start_names]
+        self.start_value_fn = ca.Function("start_values", [t, x, z, u, p, d],
+                                          [ca.vertcat(*[observed[column[n]] for n in start_names])
+                                           if start_names else ca.SX(0, 1)])
+
+    def boundary_function(self, prob: Problem) -> ca.Function:
+        """(start values, end values, integrals, T, p) -> [objective; boundary constraints]."""
+        syms = prob._boundary_syms
+        kinds = self.boundary_order
+        sv = ca.vertcat(*[syms[n] for n, _ in kinds["start"]]) if kinds["start"] else ca.SX(0, 1)
+        ev = ca.vertcat(*[syms[n] for n, _ in kinds["end"]]) if kinds["end"] else ca.SX(0, 1)
+        iv = ca.vertcat(*[syms[n] for n, _ in kinds["integral"]]) if kinds["integral"] else ca.SX(0, 1)
+        pvars = ca.vertcat(*[prob.var(n) for n in prob.free_params]) if prob.free_params else ca.SX(0, 1)
+        exprs = [prob.objective] + [c.expr for c in prob.point]
+        return ca.Function("boundary", [sv, ev, iv, prob.t_final, pvars], [ca.vertcat(*exprs)])
+
+    def parameters(self, prob: Problem, nlp: Nlp):
+        """The model's parameter vector with the freed ones as decision variables, and those alone."""
+        values = [ca.MX(v) for v in prob.p_value]
+        free = []
+        for name, (lo, hi) in prob.free_params.items():
+            k = prob.dae.p_names.index(name)
+            scale = max(abs(prob.p_value[k]), 1.0)
+            guess = min(max(prob.p_value[k], lo), hi)
+            values[k] = nlp.variable(f"p_{name}", 1, guess, lo, hi, scale)
+            free.append(values[k])
+        return (ca.vertcat(*values) if values else ca.MX(0, 1)), (ca.vertcat(*free) if free else ca.MX(0, 1))
+
+    def final_time(self, prob: Problem, nlp: Nlp):
+        lo, hi = prob.t_bounds
+        if lo == hi:
+            return ca.MX(lo)
+        return nlp.variable("t_final", 1, math.sqrt(lo * hi) if lo > 0 else hi, lo, hi, max(hi, 1e-300))
+
+    def input_bounds(self, prob: Problem):
+        dae = prob.dae
+        lo = np.array([prob.bounds_of.get(n, (-math.inf, math.inf))[0] for n in dae.u_names])
+        hi = np.array([prob.bounds_of.get(n, (-math.inf, math.inf))[1] for n in dae.u_names])
+        return lo, hi
+
+    def state_bounds(self, prob: Problem):
+        dae = prob.dae
+        lo = np.array([prob.bounds_of.get(n, (-math.inf, math.inf))[0] for n in dae.x_names])
+        hi = np.array([prob.bounds_of.get(n, (-math.inf, math.inf))[1] for n in dae.x_names])
+        return lo, hi
+
+    def start_point(self, prob: Problem):
+        """The consistent initial point simulate() would start from (a guess where the start values do
+        not fix one: an optimised start)."""
+        from ..simulate.initialize import initialize
+        dae = prob.dae
+        u0 = np.clip(np.array(dae.u_default, dtype=float), *self.input_bounds(prob))
+        try:
+            init = initialize(dae, 0.0, u0, prob.p_value, prob.start, {}, False)
+            return init.x, init.z, u0
+        except InitializationError:
+            x = np.array([dae.guesses.get(n, 0.0) for n in dae.x_names], dtype=float)
+            z = np.array([dae.guesses.get(n, 0.0) for n in dae.z_names], dtype=float)
+            return x, z, u0
+
+    # ---- solving --------------------------------------------------------------------------------
+
+    def solve(self, prob: Problem, guess, ipopt: dict, progress, verbose):
+        from .solution import Solution
+        with BUILD_LOCK:
+            self.prepare(prob)
+            nlp, layout = self.transcribe(prob, guess)
+            w, g = ca.vertcat(*nlp.w), ca.vertcat(*nlp.g)
+            opts = {"ipopt.print_level": 5 if verbose else 0, "ipopt.sb": "yes", "print_time": False,
+                    "ipopt.hessian_approximation": self.hessian}
+            opts.update({k if k.startswith("ipopt.") or k in ("print_time",) else f"ipopt.{k}": v
+                         for k, v in ipopt.items()})
+            solver = ca.nlpsol("ocp", "ipopt", {"x": w, "f": layout["objective"], "g": g}, opts)
+            layout["w"] = nlp.w
+        started = _time.perf_counter()
+        with captured() as messages:
+            out = solver(x0=nlp.w0, lbx=nlp.lbw, ubx=nlp.ubw, lbg=nlp.lbg, ubg=nlp.ubg)
+        stats = solver.stats()
+        wall = _time.perf_counter() - started
+        w_opt = np.asarray(out["x"]).ravel()
+        g_opt = np.asarray(out["g"]).ravel()
+        violation = np.maximum(np.asarray(nlp.lbg) - g_opt, g_opt - np.asarray(nlp.ubg))
+        violation = np.where(np.isfinite(violation), violation, 0.0)
+        worst = int(np.argmax(violation)) if violation.size else None
+        info = {"success": bool(stats.get("success")), "status": stats.get("return_status"),
+                "iterations": int(stats.get("iter_count", 0)), "wall_time": wall,
+                "function_time": sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_")),
+                "objective": float(out["f"]), "method": type(self).__name__, "N": self.N,
+                "max_violation": float(violation[worst]) if worst is not None else 0.0,
+                "worst_constraint": _located(nlp.labels[worst], w_opt, layout) if worst is not None else None,
+                "solver_messages": messages}
+        trajectories = ca.Function("trajectories", [w], [layout[k] for k in layout["read"]])(w_opt)
+        return Solution(prob, self, dict(zip(layout["read"], (np.asarray(v) for v in trajectories))), info)
+
+    def transcribe(self, prob: Problem, guess):            # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+def guess_trajectory(prob: Problem, guess, times: np.ndarray, x0, z0, u0):
+    """States, algebraics and inputs at `times` from a Result or Solution (interpolated), else the
+    start point held (a trivial guess)."""
+    dae = prob.dae
+    if guess is None:
+        return (np.tile(x0, (times.size, 1)), np.tile(z0, (times.size, 1)), np.tile(u0, (times.size, 1)))
+    if not hasattr(guess, "t") or not all(n in guess for n in dae.x_names):
+        raise OcpError("guess takes a Result of cm.simulate or a previous Solution of this model")
+    t_src = np.asarray(guess.t, dtype=float)
+    scale = times[-1] / t_src[-1] if t_src[-1] > 0 else 1.0
+    at = times / scale
+
+    def column(name, default):
+        return np.interp(at, t_src, np.asarray(guess[name], dtype=float)) if name in guess else \
+            np.full(times.size, default)
+    X = np.column_stack([column(n, v) for n, v in zip(dae.x_names, x0)]) if dae.x_names else np.zeros((times.size, 0))
+    Z = np.column_stack([column(n, v) for n, v in zip(dae.z_names, z0)]) if dae.z_names else np.zeros((times.size, 0))
+    U = np.column_stack([column(n, v) for n, v in zip(dae.u_names, u0)])
+    return X, Z, U
+
+
+def _located(label, w_opt, layout):
+    """(what, time in s) of a constraint labelled (what, share of the horizon)."""
+    what, share = label
+    t_final = float(ca.Function("T", [ca.vertcat(*layout["w"])], [layout["T"]])(w_opt))
+    return what, share * t_final
