@@ -34,3 +34,5 @@ def test_the_readme_blocks_run_in_order(tmp_path, monkeypatch):
     assert (tmp_path / "out.csv").read_text().startswith("time [s],")
     assert namespace["more"].t[0] == 5.0
     assert list(namespace["df"].columns) == list(namespace["cm"].simulate(0.1).names)
+    # the optimal-control block: minimum time over 1 m with |u| <= 1 takes 2·sqrt(1) = 2 s
+    assert namespace["sol"].success and abs(namespace["sol"].t_final - 2.0) < 1e-6

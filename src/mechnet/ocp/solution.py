@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..components.signals import Table
+from ..core.errors import InitializationError
 from ..simulate.result import Result
 
 
@@ -31,6 +32,9 @@ class Solution:
                                 np.tile(d.reshape(-1, 1), self.t.size)))
         self.result = Result(self.t, Y.T, dae.observed_names, dae.units, dict(stats), X.T, Z.T, dae.x_names,
                              title=f"{prob.cm.name}: optimal control ({type(method).__name__}, N = {method.N})")
+        held, self.stats["selection"] = _selection_held(prob, self.t, X, Z, U, p, d)
+        if not held:
+            self.success = self.stats["success"] = False
         nodes = np.asarray(values["U"], dtype=float).reshape(dae.u.numel(), -1)
         knots = np.linspace(0.0, self.t_final, method.N + 1)
         mode = "hold" if method.controls == "constant" else "linear"
@@ -57,10 +61,14 @@ class Solution:
         "worst": its state, "deviation": per state, "result": the simulation}."""
         prob = self.problem
         dae = prob.dae
-        start = {n: float(v) for n, v in zip(dae.x_names, self._x[:, 0])}
-        res = prob.cm.simulate(self.t_final, t_out=self.t, inputs=self.inputs, start=start,
-                               params={**{n: float(self._p[k]) for k, n in enumerate(dae.p_names)}},
-                               rtol=rtol, atol=atol, **simulate_kw)
+        initial = {n: float(v) for n, v in zip(dae.x_names + dae.z_names,
+                                                 np.concatenate([self._x[:, 0], self._z[:, 0]]))}
+        run = dict(t_out=self.t, inputs=self.inputs, rtol=rtol, atol=atol,
+                   params={n: float(self._p[k]) for k, n in enumerate(dae.p_names)}, **simulate_kw)
+        try:       # the problem's start values, its solution's start as the guess (the same branch)
+            res = prob.cm.simulate(self.t_final, start=prob.start, guess=initial, **run)
+        except InitializationError:      # the start was optimised: the solution's states fix it
+            res = prob.cm.simulate(self.t_final, start={n: initial[n] for n in dae.x_names}, **run)
         k = min(res.t.size, self.t.size)
         deviation = {n: float(np.max(np.abs(res[n][:k] - self._x[j, :k]))) for j, n in enumerate(dae.x_names)}
         worst = max(deviation, key=deviation.get) if deviation else None
@@ -72,3 +80,25 @@ class Solution:
         return (f"<Solution {status}: objective {self.stats['objective']:.6g}, t_final = {self.t_final:g} s, "
                 f"{self.stats['iterations']} iterations>")
 
+
+
+def _selection_held(prob, t, X, Z, U, p, d) -> tuple[bool, str]:
+    """The transcription integrates the start point's choice of states (`cm.dae`); at every point of the
+    solution the simulator's monitor must find no better choice by its hysteresis factor (a loop near a
+    singular position: the dependent coordinates there are ill-conditioned functions of the states).
+    (held, what was found)."""
+    from ..simulate.reselection import SelectionMonitor
+    monitor = SelectionMonitor.create(prob.cm, prob.dae)
+    if monitor is None:
+        return True, "no state selection to watch (a tree, or constant constraint Jacobians)"
+    worst = (1.0, None)
+    for k, tk in enumerate(t):
+        values = monitor.values_at(prob.dae, tk, X[:, k], Z[:, k], U[:, k], p, d)
+        quality, switch = monitor.better_at(values, probe=True, params=p)
+        if quality is not None and abs(quality) < worst[0]:
+            worst = (abs(quality), tk)
+        if switch:
+            return False, (f"degraded at t = {tk:.6g} s (conditioning {abs(quality):.2g}): another choice of "
+                           f"states is better there; the solution cannot be trusted past it")
+    return True, f"held (lowest conditioning {worst[0]:.2g}, at t = {worst[1]:.6g} s)" if worst[1] is not None \
+        else "held"

@@ -18,6 +18,7 @@ from ..caches import BUILD_LOCK
 from ..core.errors import InitializationError
 from ..solver_output import captured
 from .problem import OcpError, Problem
+from .progress import IterationBar
 
 
 @dataclass
@@ -177,11 +178,16 @@ class Transcription:
                     "ipopt.hessian_approximation": self.hessian}
             opts.update({k if k.startswith("ipopt.") or k in ("print_time",) else f"ipopt.{k}": v
                          for k, v in ipopt.items()})
+            bar = IterationBar(w.numel(), g.numel(), 0, int(opts.get("ipopt.max_iter", 3000)), progress)
+            opts["iteration_callback"] = bar
             solver = ca.nlpsol("ocp", "ipopt", {"x": w, "f": layout["objective"], "g": g}, opts)
             layout["w"] = nlp.w
         started = _time.perf_counter()
-        with captured() as messages:
-            out = solver(x0=nlp.w0, lbx=nlp.lbw, ubx=nlp.ubw, lbg=nlp.lbg, ubg=nlp.ubg)
+        try:
+            with captured() as messages:
+                out = solver(x0=nlp.w0, lbx=nlp.lbw, ubx=nlp.ubw, lbg=nlp.lbg, ubg=nlp.ubg)
+        finally:
+            bar.close()
         stats = solver.stats()
         wall = _time.perf_counter() - started
         w_opt = np.asarray(out["x"]).ravel()
