@@ -10,7 +10,10 @@ with the ordinary API and can also be run on its own. It defines
   dotted names to arrays over the time array ``t``;
 - ``plot`` — optional list of dotted names to plot;
 - ``description`` — optional one-line text (defaults to the module docstring's
-  first line).
+  first line);
+- ``optimize(cm)`` — optional: solves an optimal control problem on the compiled
+  model and returns its `mechnet.ocp.Solution` (`mechnet demo` runs it, prints
+  its statistics and the replay's deviation, and plots it).
 """
 from __future__ import annotations
 
@@ -47,6 +50,7 @@ class Scene:
     reference: Optional[Callable[[Any], Mapping[str, Any]]] = field(default=None, repr=False)
     plot: tuple[str, ...] = ()
     description: str = ""
+    optimize: Optional[Callable[[Any], Any]] = field(default=None, repr=False)
 
     def model(self):
         """Call ``build()`` and check that it gave a Model, so errors name the scene file."""
@@ -62,6 +66,19 @@ class Scene:
                 f"expected a mechnet.Model (did build() forget to `return m`?)"
             )
         return model
+
+    def solve(self, cm):
+        """The scene's `optimize(cm)`, its errors named with the scene file; the Solution it returns."""
+        from mechnet.ocp import Solution
+
+        try:
+            solution = self.optimize(cm)
+        except (Exception, SystemExit) as exc:
+            raise scene_failure(self.path, exc, "optimize(cm)", self.optimize) from exc
+        if not isinstance(solution, Solution):
+            raise SceneError(f"scene file {self.path}: optimize(cm) returned {type(solution).__name__}, expected "
+                             f"the mechnet.ocp.Solution of prob.solve(...)")
+        return solution
 
     @property
     def title(self) -> str:
@@ -178,7 +195,15 @@ def load_scene(path: str | Path) -> Scene:
         reference=_reference(module, path),
         plot=_plot(module, path),
         description=_description(module),
+        optimize=_optimize(module, path),
     )
+
+
+def _optimize(module, path: Path):
+    optimize = getattr(module, "optimize", None)
+    if optimize is not None and not callable(optimize):
+        raise SceneError(f"scene file {path}: `optimize` must be a function optimize(cm) -> Solution")
+    return optimize
 
 
 def _identifier(text: str) -> str:

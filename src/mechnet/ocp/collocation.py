@@ -66,6 +66,7 @@ class Collocation(Transcription):
         ulo, uhi = self.input_bounds(prob)
         n_nodes = N + 1 if self.controls == "linear" else N
         U = [nlp.variable(f"U_{k}", nu, Ug[min(k * (d + 1), len(grid) - 1)], ulo, uhi, 1.0) for k in range(n_nodes)]
+        self.control_rates(prob, nlp, U, h)
 
         def control(k, s):
             return U[k] if self.controls == "constant" else U[k] + s * (U[k + 1] - U[k])

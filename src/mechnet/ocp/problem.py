@@ -84,6 +84,7 @@ class Problem:
         self._boundary: dict[str, tuple[str, ca.SX]] = {}      # placeholder -> (start|end|integral, path expr)
         self._boundary_syms: dict[str, ca.SX] = {}
         self.bounds_of: dict[str, tuple[float, float]] = {}
+        self.rate_bounds_of: dict[str, tuple[float, float]] = {}
         self.path: list[Constraint] = []
         self.point: list[Constraint] = []
         self.objective = None
@@ -134,6 +135,12 @@ class Problem:
             raise OcpError(f"bounds({name!r}, {lo:g}, {hi:g}) cannot hold at t = 0, where the start value fixes "
                            f"{name} = {self.start[name]:g}")
         self.bounds_of[name] = lo, hi
+
+    def rate_bounds(self, name: str, lower=-math.inf, upper=math.inf) -> None:
+        """lower <= d(input)/dt <= upper (per second) between control nodes: a motor's slew limit."""
+        if name not in self.dae.u_names:
+            raise unknown_name(str(name), self.dae.u_names, "input (a control) for rate_bounds")
+        self.rate_bounds_of[name] = self._pair(lower, upper, f"rate_bounds({name!r})")
 
     def free_parameter(self, name: str, lower=-math.inf, upper=math.inf) -> None:
         """Make a tunable parameter (`mn.tunable`) a decision variable within [lower, upper]."""

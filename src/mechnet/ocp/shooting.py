@@ -86,6 +86,7 @@ class MultipleShooting(Transcription):
         ulo, uhi = self.input_bounds(prob)
         n_nodes = N + 1 if self.controls == "linear" else N
         U = [nlp.variable(f"U_{k}", nu, Ug[k], ulo, uhi, 1.0) for k in range(n_nodes)]
+        self.control_rates(prob, nlp, U, h)
         X = [nlp.variable(f"X_{k}", nx_, Xg[k], xlo, xhi, xn) for k in range(N + 1)]
         Z = [nlp.variable(f"Z_{k}", nz, Zg[k], -np.inf, np.inf, zn) for k in range(N + 1)]
 

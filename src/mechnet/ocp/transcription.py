@@ -140,6 +140,13 @@ class Transcription:
             return ca.MX(lo)
         return nlp.variable("t_final", 1, math.sqrt(lo * hi) if lo > 0 else hi, lo, hi, max(hi, 1e-300))
 
+    def control_rates(self, prob: Problem, nlp: Nlp, U: list, h) -> None:
+        """Rate bounds between successive control nodes: (U[k+1] - U[k]) / h."""
+        for name, (lo, hi) in prob.rate_bounds_of.items():
+            j = prob.dae.u_names.index(name)
+            for k in range(len(U) - 1):
+                nlp.constrain((U[k + 1][j] - U[k][j]) / h, lo, hi, f"rate bounds on {name}", (k + 1) / self.N)
+
     def input_bounds(self, prob: Problem):
         dae = prob.dae
         lo = np.array([prob.bounds_of.get(n, (-math.inf, math.inf))[0] for n in dae.u_names])

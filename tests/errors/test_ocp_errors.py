@@ -1,0 +1,183 @@
+"""Optimal control problems that cannot be posed or solved as given: OcpError (a MechnetError) or
+UnknownNameError, each message naming the culprit; an infeasible problem is a failed Solution whose
+stats name the worst constraint and its time."""
+import math
+
+import casadi as ca
+import pytest
+
+import mechnet as mn
+from mechnet import ocp
+from mechnet.components import translational as tr
+
+
+@pytest.fixture(scope="module")
+def cm():
+    m = mn.Model("double_integrator")
+    mass = m.add(tr.Mass(name="mass", m=1.0, s_start=0.0, v_start=0.0))
+    push = m.add(tr.Force(name="push"))
+    m.connect(push.flange, mass.flange_a)
+    return m.compile()
+
+
+@pytest.fixture
+def prob(cm):
+    return ocp.Problem(cm, t_final=1.0)
+
+
+def test_ocp_error_is_a_mechnet_error():
+    assert issubclass(ocp.OcpError, mn.MechnetError)
+    assert ocp.OcpError is mn.ocp.OcpError
+
+
+# ---- names ------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("call, name, suggestion", [
+    (lambda p: p.var("mass.sx"), "mass.sx", "mass.s"),
+    (lambda p: p.bounds("push.ff", -1, 1), "push.ff", "push.f"),
+], ids=["var", "bounds"])
+def test_unknown_name_suggests_the_closest(prob, call, name, suggestion):
+    with pytest.raises(mn.UnknownNameError, match=rf"'{name}' does not exist.*did you mean {suggestion}\b"):
+        call(prob)
+
+
+def test_unknown_start_value_name(cm):
+    with pytest.raises(mn.UnknownNameError, match=r"start value for 'mass.q' does not exist.*did you mean"):
+        ocp.Problem(cm, 1.0, start={"mass.q": 1.0})
+
+
+# ---- posing the problem ---------------------------------------------------------------------------
+
+def test_lower_bound_above_upper(prob):
+    with pytest.raises(ocp.OcpError, match=r"bounds\('push.f'\): lower bound 1 is above upper bound -1"):
+        prob.bounds("push.f", 1, -1)
+
+
+def test_bound_not_a_number(prob):
+    with pytest.raises(ocp.OcpError, match=r"bounds\('push.f'\) upper is NaN"):
+        prob.bounds("push.f", -1, math.nan)
+
+
+def test_model_without_inputs(cm):
+    m = mn.Model("free_mass")
+    m.add(tr.Mass(name="mass", m=1.0, s_start=0.0, v_start=0.0))
+    with pytest.raises(ocp.OcpError, match=r"model 'free_mass' has no inputs to optimise.*Torque"):
+        ocp.Problem(m.compile(), 1.0)
+
+
+def test_problem_needs_a_compiled_model():
+    m = mn.Model("uncompiled")
+    m.add(tr.Mass(name="mass", m=1.0))
+    with pytest.raises(ocp.OcpError, match=r"compiled model.*got Model"):
+        ocp.Problem(m, 1.0)
+
+
+@pytest.mark.parametrize("t_final, message", [
+    (None, r"free final time needs bounds: t_final=\(lower, upper\)"),
+    ((0.0, 1.0), r"t_final bounds \(0, 1\) must satisfy 0 < lower <= upper"),
+    ((2.0, 1.0), r"t_final bounds \(2, 1\) must satisfy 0 < lower <= upper"),
+    ((1.0, 2.0, 3.0), r"give a time, or \(lower, upper\) bounds"),
+    (-1.0, r"t_final = -1 s must be > 0"),
+], ids=["None", "zero-lower", "reversed", "three", "negative"])
+def test_final_time(cm, t_final, message):
+    with pytest.raises(ocp.OcpError, match=message):
+        ocp.Problem(cm, t_final)
+
+
+def test_non_scalar_objective(prob):
+    with pytest.raises(ocp.OcpError, match=r"minimize\(...\): the expression must be a scalar, got shape \(2, 1\)"):
+        prob.minimize(ca.vertcat(prob.at_end(prob.var("mass.s")), prob.t_final))
+
+
+@pytest.mark.parametrize("objective", [
+    lambda p: p.var("push.f") ** 2,
+    lambda p: p.at_end(p.var("mass.s")) + p.var("mass.v"),
+    lambda p: p.time,
+], ids=["bare", "mixed", "time"])
+def test_objective_with_a_path_quantity(prob, objective):
+    with pytest.raises(ocp.OcpError, match=r"objective holds a path quantity.*prob.integral\(...\) or prob.at_end"):
+        prob.minimize(objective(prob))
+
+
+def test_objective_not_an_expression(prob):
+    with pytest.raises(ocp.OcpError, match=r"minimize\(...\): 'fast' is not a CasADi expression"):
+        prob.minimize("fast")
+
+
+@pytest.mark.parametrize("constraint", [True, False, 1.0 <= 2.0], ids=["True", "False", "decided"])
+def test_subject_to_a_python_bool(prob, constraint):
+    with pytest.raises(ocp.OcpError, match=r"decided in Python"):
+        prob.subject_to(constraint)
+
+
+def test_subject_to_not_a_comparison(prob):
+    with pytest.raises(ocp.OcpError, match=r"subject_to\(mass.s\): not a comparison"):
+        prob.subject_to(prob.var("mass.s"))
+
+
+def test_constraint_mixing_path_and_boundary(prob):
+    with pytest.raises(ocp.OcpError, match=r"mixes path quantities with at_start/at_end/integral"):
+        prob.subject_to(prob.var("mass.s") <= prob.at_end(prob.var("mass.s")))
+
+
+def test_nested_placeholder(prob):
+    with pytest.raises(ocp.OcpError, match=r"integral\(...\) takes an expression along the path"):
+        prob.integral(prob.at_end(prob.var("mass.s")))
+
+
+def test_solve_without_objective(prob):
+    with pytest.raises(ocp.OcpError, match=r"no objective: call prob.minimize"):
+        prob.solve(ocp.Collocation(N=10))
+
+
+def test_solve_with_a_method_name(prob):
+    prob.minimize(prob.integral(prob.var("push.f") ** 2))
+    with pytest.raises(ocp.OcpError, match=r"solve takes Collocation\(...\) or MultipleShooting\(...\), got str"):
+        prob.solve("collocation")
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: ocp.Collocation(N=10, scheme="gauss"), r"scheme = 'gauss': choose 'radau' or 'legendre'"),
+    (lambda: ocp.Collocation(N=10, controls="cubic"), r"controls = 'cubic': choose 'constant'"),
+    (lambda: ocp.MultipleShooting(N=10, integrator="euler"), r"integrator = 'euler': choose one of cvodes, idas, rk"),
+    (lambda: ocp.MultipleShooting(N=10, hessian="bfgs"), r"hessian = 'bfgs': choose 'exact' or 'limited-memory'"),
+], ids=["scheme", "controls", "integrator", "hessian"])
+def test_transcription_options(make, message):
+    with pytest.raises(ocp.OcpError, match=message):
+        make()
+
+
+# ---- infeasible at t = 0 -------------------------------------------------------------------------
+
+def test_bounds_excluding_the_fixed_start_value(prob):
+    # s_start = 0 fixed in the model: bounds(mass.s, 1, 2) cannot hold at t = 0, refused when posed
+    with pytest.raises(ocp.OcpError, match=r"bounds\('mass.s', 1, 2\) cannot hold at t = 0.*mass.s = 0"):
+        prob.bounds("mass.s", 1, 2)
+
+
+@pytest.mark.parametrize("method", [ocp.Collocation(N=10), ocp.MultipleShooting(N=10, integrator="rk")],
+                         ids=["collocation", "shooting-rk"])
+def test_path_constraint_infeasible_at_the_start(prob, method):
+    # the same conflict as a path constraint is only found by IPOPT: a failed Solution whose worst
+    # constraint is the fixed start value of mass.s at t = 0 (violated by ~1 m or less, > 0.1)
+    prob.subject_to(prob.var("mass.s") >= 1.0)
+    prob.minimize(prob.integral(prob.var("push.f") ** 2))
+    sol = prob.solve(method)
+    assert sol.success is False
+    assert sol.stats["status"] == "Infeasible_Problem_Detected"
+    what, t = sol.stats["worst_constraint"]
+    assert "mass.s" in what and t == 0.0
+    assert sol.stats["max_violation"] > 0.1
+    assert "FAILED" in repr(sol)
+
+
+def test_bounds_on_an_observed_quantity_infeasible(prob):
+    # |push.f| <= 1 but mass.a = push.f / m must lie in [2, 3]: the worst constraint names the bound
+    prob.bounds("push.f", -1, 1)
+    prob.bounds("mass.a", 2, 3)
+    prob.minimize(prob.integral(prob.var("push.f") ** 2))
+    sol = prob.solve(ocp.Collocation(N=10))
+    assert sol.success is False
+    what, t = sol.stats["worst_constraint"]
+    assert what == "bounds on mass.a" and 0.0 <= t <= 1.0
+    assert sol.stats["max_violation"] == pytest.approx(1.0, abs=1e-6)
