@@ -62,7 +62,8 @@ def assembly(theta2, a=A, b=B, c=C, d=D):
     return theta3, theta4
 
 
-def build(d_bearing: float = D_BEARING, tau: float = TAU, theta0: float = THETA0) -> mn.Model:
+def build(d_bearing: float = D_BEARING, tau: float | None = TAU, theta0: float = THETA0) -> mn.Model:
+    """The four-bar; `tau=None` leaves the motor torque an input ("motor_torque.tau", for `optimize`)."""
     th3, th4 = assembly(theta0)
     m = mn.Model("four_bar")
     world = m.add(mb.World(name="world", g=[0.0, -G, 0.0]))
@@ -91,7 +92,7 @@ def build(d_bearing: float = D_BEARING, tau: float = TAU, theta0: float = THETA0
 
     # drive line: torque → rotor (with bearing loss) → gear → crank joint axis; housings fixed
     housing = m.add(rot.Fixed(name="housing"))
-    torque = m.add(rot.Torque(name="motor_torque", tau=sig.Constant(tau)))
+    torque = m.add(rot.Torque(name="motor_torque", **({} if tau is None else {"tau": sig.Constant(tau)})))
     motor = m.add(rot.Inertia(name="motor", J=J_MOTOR))      # its angle and speed follow the crank's
     bearing = m.add(rot.Damper(name="bearing", d=d_bearing))
     gear = m.add(rot.IdealGear(name="gear", ratio=RATIO))
@@ -104,3 +105,18 @@ def build(d_bearing: float = D_BEARING, tau: float = TAU, theta0: float = THETA0
 
     m.add(mb.SystemEnergy(name="energy"))
     return m
+
+
+def optimize(cm, N: int = 40, T: float = 1.0):
+    """Minimal-effort half turn of the crank, rest to rest in T seconds, through the motor and gear: the
+    loop's closure is part of the optimal control problem (collocation on the index-reduced DAE). `cm` is
+    the constant-torque scene; the problem needs the torque as an input, so it compiles `build(tau=None)`."""
+    from mechnet import ocp
+
+    driven = build(tau=None).compile()
+    prob = ocp.Problem(driven, t_final=T)
+    prob.bounds("motor_torque.tau", -1.0, 1.0)
+    prob.subject_to(prob.at_end(prob.var("crank_joint.phi")) == THETA0 + np.pi)
+    prob.subject_to(prob.at_end(prob.var("crank_joint.w")) == 0.0)
+    prob.minimize(prob.integral(prob.var("motor_torque.tau") ** 2))
+    return prob.solve(ocp.Collocation(N=N, degree=3))

@@ -10,16 +10,17 @@ its crank. Every solve is checked by `sol.verify()` (or an equivalent re-simulat
 transcription's states against an independent integration with the optimal controls.
 """
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import mechnet as mn
 from mechnet import ocp
-from mechnet.components import multibody as mb
 from mechnet.components import rotational as rot
 from mechnet.components import translational as tr
 from mechnet.components.signals import Table
+from mechnet.scene import load_scene
 from models import four_bar
 
 SHOOTING_TIGHT = {"rtol": 1e-10, "atol": 1e-10}
@@ -35,23 +36,11 @@ def double_integrator():
     return m.compile()
 
 
-def cart_pole(M=1.0, mp=0.3, L=0.5):
-    """Cart M on a rail along x pushed by `push.f`; a massless pole L to a point mass mp, hanging at
-    hinge.phi = 0, upright at pi (gravity -y). The same model as examples/cart_pole_swing_up.py."""
-    m = mn.Model("cart_pole")
-    world = m.add(mb.World(name="world"))
-    rail = m.add(mb.Prismatic(name="rail", n=[1, 0, 0], use_flange=True, s_start=0.0, v_start=0.0))
-    cart = m.add(mb.Particle(name="cart", m=M))
-    hinge = m.add(mb.Revolute(name="hinge", n=[0, 0, 1], phi_start=0.0, w_start=0.0))
-    pole = m.add(mb.FixedTranslation(name="pole", r=[0, -L, 0]))
-    tip = m.add(mb.Particle(name="tip", m=mp))
-    ground = m.add(tr.Fixed(name="ground"))
-    push = m.add(tr.Force(name="push"))
-    for a, b in [(world.frame_b, rail.frame_a), (rail.frame_b, cart.frame_a), (rail.frame_b, hinge.frame_a),
-                 (hinge.frame_b, pole.frame_a), (pole.frame_b, tip.frame_a), (rail.support, ground.flange),
-                 (rail.axis, push.flange)]:
-        m.connect(a, b)
-    return m.compile()
+def cart_pole():
+    """The scene examples/cart_pole_swing_up.py: cart M = 1 kg on a rail along x pushed by `push.f`; a
+    massless pole L = 0.5 m to a 0.3 kg point mass, hanging at hinge.phi = 0, upright at pi (gravity -y)."""
+    scene = load_scene(Path(__file__).resolve().parents[2] / "examples" / "cart_pole_swing_up.py")
+    return scene.model().compile()
 
 
 @pytest.fixture(scope="module")

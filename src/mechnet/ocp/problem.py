@@ -177,6 +177,27 @@ class Problem:
                            "in prob.integral(...) or prob.at_end(...)")
         self.objective = objective
 
+    def end_targets(self) -> dict:
+        """{state: value} for each terminal equality `at_end(var(state)) == value` (affine in it): what
+        the "interpolate" guess runs the states towards."""
+        targets = {}
+        by_sym = {id(sym): name for name, sym in self._boundary_syms.items()}
+        for c in self.point:
+            if c.lower != c.upper:
+                continue
+            syms = [sym for sym in self._boundary_syms.values() if ca.depends_on(c.expr, sym)]
+            if len(syms) != 1 or ca.depends_on(c.expr, self.t_final):
+                continue
+            kind, path = self._boundary[by_sym[id(syms[0])]]
+            name = next((n for n, v in self._vars.items() if ca.is_equal(path, v)), None)
+            if kind != "end" or name not in self.dae.x_names or not ca.is_linear(c.expr, syms[0]):
+                continue
+            f = ca.Function("affine", [syms[0]], [c.expr])
+            offset, slope = float(f(0.0)), float(f(1.0)) - float(f(0.0))
+            if slope != 0.0:
+                targets[name] = c.lower / slope - offset / slope
+        return targets
+
     # ---- helpers -------------------------------------------------------------------------------
 
     def _classify(self, expr, lo, hi, text):
@@ -219,8 +240,9 @@ class Problem:
 
     def solve(self, method, *, guess=None, ipopt: dict | None = None, progress=None, verbose=False):
         """Transcribe with `method` (`Collocation(...)`, `MultipleShooting(...)`) and solve with IPOPT.
-        `guess`: a Result of a simulation, a previous Solution, or None (interpolation between the
-        start values and constant inputs)."""
+        `guess`: a Result of a simulation (with the input to try), a previous Solution (a warm start, at
+        any N), "interpolate" (states linear from the start to their terminal equalities) or None (the
+        start point held)."""
         from .transcription import Transcription
         if self.objective is None:
             raise OcpError("no objective: call prob.minimize(...) first")

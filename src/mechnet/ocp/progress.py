@@ -5,7 +5,7 @@ import casadi as ca
 
 from ..solver_output import terminal
 
-SHOW_AFTER_SECONDS = 1.0         # progress=None: a bar only for a solve that takes longer than this
+SHOW_AFTER_SECONDS = 1.0         # progress=None: a bar only on a terminal, for a solve longer than this
 
 
 class IterationBar(ca.Callback):
@@ -17,7 +17,8 @@ class IterationBar(ca.Callback):
         self.sizes = {"x": nx, "lam_x": nx, "g": ng, "lam_g": ng, "p": np_, "lam_p": np_, "f": 1}
         from tqdm import tqdm
         self.bar = tqdm(total=max_iter, desc="ipopt", unit="it", leave=False, file=terminal(),
-                        delay=0.0 if progress else SHOW_AFTER_SECONDS, disable=progress is False,
+                        delay=0.0 if progress else SHOW_AFTER_SECONDS,
+                        disable=False if progress else (True if progress is False else None),
                         bar_format="{l_bar}{bar}| {n}/{total} iterations [{elapsed}] {postfix}")
         self.construct("ipopt_progress", {"enable_fd": False})
 

@@ -220,10 +220,17 @@ def guess_trajectory(prob: Problem, guess, times: np.ndarray, x0, z0, u0):
     """States, algebraics and inputs at `times` from a Result or Solution (interpolated), else the
     start point held (a trivial guess)."""
     dae = prob.dae
-    if guess is None:
-        return (np.tile(x0, (times.size, 1)), np.tile(z0, (times.size, 1)), np.tile(u0, (times.size, 1)))
+    if guess is None or (isinstance(guess, str) and guess == "interpolate"):
+        X = np.tile(x0, (times.size, 1))
+        if guess is not None:
+            share = times / times[-1] if times[-1] > 0 else np.zeros_like(times)
+            for name, target in prob.end_targets().items():
+                k = dae.x_names.index(name)
+                X[:, k] = x0[k] + share * (target - x0[k])
+        return X, np.tile(z0, (times.size, 1)), np.tile(u0, (times.size, 1))
     if not hasattr(guess, "t") or not all(n in guess for n in dae.x_names):
-        raise OcpError("guess takes a Result of cm.simulate or a previous Solution of this model")
+        raise OcpError("guess takes a Result of cm.simulate, a previous Solution of this model, \"interpolate\" "
+                       "or None")
     t_src = np.asarray(guess.t, dtype=float)
     scale = times[-1] / t_src[-1] if t_src[-1] > 0 else 1.0
     at = times / scale
