@@ -27,7 +27,8 @@ plot = ["base.phi", "shoulder.phi", "elbow.phi", "tool.frame_a.r_0[2]"]
 description = "Three-link robot arm driven by geared motors with torque profiles."
 
 
-def build() -> mn.Model:
+def build(driven: bool = True) -> mn.Model:
+    """The arm; `driven=False` leaves the motor torques inputs ("base_torque.tau", ..., for `optimize`)."""
     m = mn.Model("robot_arm")
     world = m.add(mb.World(name="world", g=[0.0, 0.0, -9.81]))
     # motor torques (N·m, ×RATIO at the joint): turn the base, hold the shoulder against gravity
@@ -46,7 +47,7 @@ def build() -> mn.Model:
         body = m.add(mb.Body(name=f"{name}_body", m=mass, r_cm=[x / 2 for x in along], I=shape))
         motor = m.add(rot.Inertia(name=f"{name}_motor", J=J_MOTOR, phi_start=starts[k] * RATIO, w_start=0.0))
         gear = m.add(rot.IdealGear(name=f"{name}_gear", ratio=RATIO))
-        torque = m.add(rot.Torque(name=f"{name}_torque", tau=profiles[k]))
+        torque = m.add(rot.Torque(name=f"{name}_torque", **({"tau": profiles[k]} if driven else {})))
         bearing = m.add(rot.Damper(name=f"{name}_bearing", d=D_MOTOR))
         fixed = m.add(rot.Fixed(name=f"{name}_fixed"))
         m.connect(previous, joint.frame_a)
@@ -78,3 +79,24 @@ def forward_kinematics(q):
     p2 = p1 + R2 @ np.array([LINKS[1][1], 0, 0])
     R3 = R2 @ ry(q[2])
     return p2 + R3 @ np.array([LINKS[2][1], 0, 0])
+
+
+TARGET = [0.8, -0.2, 0.6]        # joint angles (rad) the arm moves to, rest to rest
+
+
+def optimize(cm, N: int = 30, T: float = 1.5):
+    """Point to point through the motors and gears: from the start pose to TARGET at rest in T seconds
+    with the least ∫ Σ τ² dt (motor torques, |τ| <= 1 N·m). `cm` is the torque-profile scene; the problem
+    compiles `build(driven=False)`, whose motor torques are inputs."""
+    from mechnet import ocp
+
+    free = build(driven=False).compile()
+    prob = ocp.Problem(free, t_final=T)
+    effort = 0
+    for name, target in zip(["base", "shoulder", "elbow"], TARGET):
+        prob.bounds(f"{name}_torque.tau", -1.0, 1.0)
+        prob.subject_to(prob.at_end(prob.var(f"{name}.phi")) == target)
+        prob.subject_to(prob.at_end(prob.var(f"{name}.w")) == 0.0)
+        effort = effort + prob.var(f"{name}_torque.tau") ** 2
+    prob.minimize(prob.integral(effort))
+    return prob.solve(ocp.Collocation(N=N, degree=3))

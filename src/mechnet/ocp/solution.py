@@ -53,7 +53,7 @@ class Solution:
 
     def plot(self, names=None, **kw):
         """The named trajectories against time, one subplot per unit (`Result.plot`)."""
-        return self.result.plot(names or list(self.problem.dae.u_names) + list(self.problem.dae.x_names[:4]), **kw)
+        return self.result.plot(names or list(self.problem.dae.u_names) + list(self.problem.dae.x_names[:6]), **kw)
 
     def verify(self, rtol: float = 1e-10, atol: float = 1e-12, **simulate_kw) -> dict:
         """Re-simulate from the solution's start with its controls (`sol.inputs`, exact piecewise tables)
