@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 
 from .problem import OcpError
-from .transcription import Nlp, Transcription, guess_trajectory
+from .transcription import Nlp, Transcription, final_time_guess, guess_trajectory
 
 
 def coefficients(degree: int, scheme: str):
@@ -59,7 +59,7 @@ class Collocation(Transcription):
         d_values = ca.DM(list(dae.d_value)) if dae.d.numel() else ca.DM(0, 1)
         h = T / N
         x0, z0, u0 = self.start_point(prob)
-        T_guess = float(np.mean(prob.t_bounds))
+        T_guess = final_time_guess(prob)
         grid = np.array([(k + tj) * T_guess / N for k in range(N) for tj in tau] + [T_guess])
         Xg, Zg, Ug = guess_trajectory(prob, guess, grid, x0, z0, u0)
         xlo, xhi = self.state_bounds(prob)

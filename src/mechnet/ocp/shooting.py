@@ -13,7 +13,7 @@ import casadi as ca
 import numpy as np
 
 from .problem import OcpError
-from .transcription import Nlp, Transcription, guess_trajectory
+from .transcription import Nlp, Transcription, final_time_guess, guess_trajectory
 
 INTEGRATORS = ("cvodes", "idas", "rk")
 
@@ -80,7 +80,7 @@ class MultipleShooting(Transcription):
         d_values = ca.DM(list(dae.d_value)) if dae.d.numel() else ca.DM(0, 1)
         h = T / N
         x0, z0, u0 = self.start_point(prob)
-        grid = np.linspace(0.0, float(np.mean(prob.t_bounds)), N + 1)
+        grid = np.linspace(0.0, final_time_guess(prob), N + 1)
         Xg, Zg, Ug = guess_trajectory(prob, guess, grid, x0, z0, u0)
         xlo, xhi = self.state_bounds(prob)
         ulo, uhi = self.input_bounds(prob)

@@ -138,7 +138,7 @@ class Transcription:
         lo, hi = prob.t_bounds
         if lo == hi:
             return ca.MX(lo)
-        return nlp.variable("t_final", 1, math.sqrt(lo * hi) if lo > 0 else hi, lo, hi, max(hi, 1e-300))
+        return nlp.variable("t_final", 1, final_time_guess(prob), lo, hi, hi)
 
     def control_rates(self, prob: Problem, nlp: Nlp, U: list, h) -> None:
         """Rate bounds between successive control nodes: (U[k+1] - U[k]) / h."""
@@ -216,6 +216,12 @@ class Transcription:
         raise NotImplementedError
 
 
+def final_time_guess(prob: Problem) -> float:
+    """A free final time starts at the geometric mean of its bounds (the guess's time grid spans it)."""
+    lo, hi = prob.t_bounds
+    return math.sqrt(lo * hi)
+
+
 def guess_trajectory(prob: Problem, guess, times: np.ndarray, x0, z0, u0):
     """States, algebraics and inputs at `times` from a Result or Solution (interpolated), else the
     start point held (a trivial guess)."""
@@ -248,4 +254,4 @@ def _located(label, w_opt, layout):
     """(what, time in s) of a constraint labelled (what, share of the horizon)."""
     what, share = label
     t_final = float(ca.Function("T", [ca.vertcat(*layout["w"])], [layout["T"]])(w_opt))
-    return what, share * t_final
+    return what, float(share) * t_final

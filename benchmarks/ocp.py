@@ -1,0 +1,196 @@
+"""ocp — cart-pole swing-up: mechnet.ocp against the same problem written by hand in CasADi's Opti.
+
+The scene (mechnet.components.multibody, gravity 9.81 m/s² along −y): World → Prismatic `rail`
+(n = x, use_flange; a translational Force `push` on its axis flange, a Fixed on its support) → cart
+Particle (M_CART), and on the cart a Revolute `hinge` about z → FixedTranslation r = [0, −L, 0] →
+pole-tip Particle (M_TIP). States rail.s, rail.v, hinge.phi, hinge.w; hinge.phi = 0 hangs, π stands.
+
+The problem: from hanging at rest (all states 0) to upright at rest with the cart back at 0 in
+T_SWING s, |push.f| <= F_MAX, minimise ∫ push.f² dt.
+
+The hand model: the textbook cart-pole (point mass on a massless pole) in the same coordinates,
+    (M + m) s'' + m L (cos φ φ'' − sin φ φ'²) = u,   L φ'' + cos φ s'' + g sin φ = 0,
+checked against cm.simulate before anything is compared (a constant push from a tilted start).
+
+Methods, each at N = 50, 100, 200 in the same run:
+  * mechnet Collocation(N, degree=3) (Radau, piecewise-constant controls, exact Hessian);
+  * hand: the same direct collocation in casadi.Opti — the same decision variables in the same
+    order (all controls, then X_0, then per interval the 3 collocation states and the next node),
+    the same constraint rows in the same order and form ((h f − Σ C x) at the collocation points,
+    continuity, start and end values as rows), the same quadrature of ∫u², the same initial guess
+    (states held at their start values, controls 0: mechnet's guess=None) and the same IPOPT
+    options (exact Hessian, print_level 0, sb yes). The control bounds reach IPOPT as bounds of the
+    variables in mechnet (lbx/ubx); Opti passes opti.bounded(...) as constraint rows unless the
+    nlpsol option "detect_simple_bounds" is set, which also moves the start and end rows (each on a
+    single variable) into the bounds. Both hand variants are timed: "hand-g" (rows) and "hand-b"
+    (detect_simple_bounds);
+  * mechnet MultipleShooting(N, integrator="cvodes", rtol=1e-8, atol=1e-10) (limited-memory
+    Hessian, its default) at N = 50, 100 (N = 200 with --shooting-200); no hand counterpart.
+
+Times: "total" = everything after the model is compiled: ocp.Problem + prob.solve (transcription,
+nlpsol construction, IPOPT, the Solution) for mechnet; Opti construction + opti.solve for the hand
+code. "solve" = the solver call alone (mechnet: sol.stats["wall_time"]; hand: the same call timed
+around opti.solve minus nothing — Opti builds its nlpsol inside solve(), so the hand "solve" is
+taken from the nlpsol's own stats as t_wall_total when CasADi reports it, else the IPOPT part plus
+the function part). "fun" = time in CasADi function evaluations (Σ t_wall_nlp_* of nlpsol's stats,
+sol.stats["function_time"]); "ipopt" = solve − fun (IPOPT's own linear algebra and bookkeeping,
+plus the iteration callback). Collocation: best of REPEATS runs; shooting: one run.
+Objectives of mechnet and hand collocation must agree within 1e-6 relative (else FAIL).
+
+Usage:  python benchmarks/ocp.py [--quick] [--repeats 3] [--shooting-200] [--profile N]
+        (--quick: N = 50, 100; shooting at N = 50 only; best of 1)
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+import mechnet as mn
+from mechnet import ocp
+from mechnet.components import multibody as mb
+from mechnet.components import translational as tr
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from chain3d import _cpu_model, _git_head  # noqa: E402  (importable: its work runs under __main__ only)
+
+M_CART, M_TIP, L, G = 1.0, 0.3, 0.5, 9.81     # kg, kg, m, m/s²
+T_SWING, F_MAX = 2.0, 20.0                    # s, N
+X_START = (0.0, 0.0, 0.0, 0.0)                # rail.s, rail.v, hinge.phi, hinge.w: hanging at rest
+X_END = (0.0, 0.0, math.pi, 0.0)              # upright at rest, cart back at 0
+STATES = ("rail.s", "rail.v", "hinge.phi", "hinge.w")
+NS, QUICK_NS = (50, 100, 200), (50, 100)
+SHOOTING_NS, QUICK_SHOOTING_NS = (50, 100), (50,)
+REPEATS = 3
+DEGREE = 3
+IPOPT = {"print_level": 0, "sb": "yes"}       # mechnet's own defaults for a quiet solve
+OBJ_RTOL = 1e-6
+MODEL_TOL = 1e-8                              # |mechnet − hand| of the simulated states
+
+
+# ---- the model, twice ---------------------------------------------------------------------------
+
+def build() -> mn.Model:
+    m = mn.Model("cart_pole")
+    world = m.add(mb.World(name="world"))
+    rail = m.add(mb.Prismatic(name="rail", n=[1, 0, 0], use_flange=True, s_start=X_START[0], v_start=X_START[1]))
+    cart = m.add(mb.Particle(name="cart", m=M_CART))
+    hinge = m.add(mb.Revolute(name="hinge", n=[0, 0, 1], phi_start=X_START[2], w_start=X_START[3]))
+    pole = m.add(mb.FixedTranslation(name="pole", r=[0, -L, 0]))
+    tip = m.add(mb.Particle(name="tip", m=M_TIP))
+    ground = m.add(tr.Fixed(name="ground"))
+    push = m.add(tr.Force(name="push"))
+    m.connect(world.frame_b, rail.frame_a)
+    m.connect(rail.frame_b, cart.frame_a)
+    m.connect(rail.frame_b, hinge.frame_a)
+    m.connect(hinge.frame_b, pole.frame_a)
+    m.connect(pole.frame_b, tip.frame_a)
+    m.connect(rail.support, ground.flange)
+    m.connect(rail.axis, push.flange)
+    return m
+
+
+def hand_ode() -> ca.Function:
+    """xdot = f(x, u), x = (s, v, φ, w): the cart-pole solved for s'' and φ''."""
+    x, u = ca.SX.sym("x", 4), ca.SX.sym("u")
+    v, phi, w = x[1], x[2], x[3]
+    sin, cos = ca.sin(phi), ca.cos(phi)
+    a = (u + M_TIP * sin * (L * w ** 2 + G * cos)) / (M_CART + M_TIP * sin ** 2)
+    alpha = -(G * sin + cos * a) / L
+    return ca.Function("cart_pole", [x, u], [ca.vertcat(v, a, w, alpha)], ["x", "u"], ["xdot"])
+
+
+def check_model(cm, f) -> float:
+    """max |state(mechnet) − state(hand)| over 2 s from φ = 1 rad, w = 2 rad/s, v = −0.5 m/s under a
+    constant 5 N (both integrated to 1e-12)."""
+    start = {"rail.s": 0.1, "rail.v": -0.5, "hinge.phi": 1.0, "hinge.w": 2.0}
+    u, t_out = 5.0, np.linspace(0.0, 2.0, 41)
+    res = cm.simulate(2.0, t_out=t_out, start=start, inputs={"push.f": u}, rtol=1e-12, atol=1e-12)
+    x = ca.SX.sym("x", 4)
+    integ = ca.integrator("hand", "cvodes", {"x": x, "ode": f(x, u)}, 0.0, t_out[1:],
+                          {"reltol": 1e-12, "abstol": 1e-12})
+    X = np.asarray(integ(x0=[start[n] for n in STATES])["xf"])
+    return max(float(np.max(np.abs(np.asarray(res[n])[1:] - X[k]))) for k, n in enumerate(STATES))
+
+
+# ---- mechnet ---------------------------------------------------------------------------------------
+
+def mechnet_problem(cm) -> ocp.Problem:
+    prob = ocp.Problem(cm, t_final=T_SWING)
+    prob.bounds("push.f", -F_MAX, F_MAX)
+    for name, value in zip(STATES, X_END):
+        prob.subject_to(prob.at_end(prob.var(name)) == value)
+    prob.minimize(prob.integral(prob.var("push.f") ** 2))
+    return prob
+
+
+def run_mechnet(cm, method) -> dict:
+    t0 = time.perf_counter()
+    sol = mechnet_problem(cm).solve(method, ipopt=dict(IPOPT))
+    total = time.perf_counter() - t0
+    s = sol.stats
+    return {"ok": sol.success, "total": total, "solve": s["wall_time"], "fun": s["function_time"],
+            "iter": s["iterations"], "obj": s["objective"], "status": s["status"], "sol": sol}
+
+
+# ---- by hand -------------------------------------------------------------------------------------
+
+def radau(degree):
+    """tau (0 first), C[r, j] = l_r'(tau_j), D[r] = l_r(1), B[r] = ∫_0^1 l_r (the CasADi example)."""
+    tau = np.append(0.0, ca.collocation_points(degree, "radau"))
+    C, D, B = np.zeros((degree + 1, degree + 1)), np.zeros(degree + 1), np.zeros(degree + 1)
+    for r in range(degree + 1):
+        p = np.poly1d([1.0])
+        for k in range(degree + 1):
+            if k != r:
+                p *= np.poly1d([1.0, -tau[k]]) / (tau[r] - tau[k])
+        D[r], C[r], B[r] = p(1.0), np.polyder(p)(tau), np.polyint(p)(1.0)
+    return tau, C, D, B
+
+
+def run_hand(N, f, simple_bounds: bool) -> dict:
+    t0 = time.perf_counter()
+    tau, C, D, B = radau(DEGREE)
+    h = T_SWING / N
+    opti = ca.Opti()
+    U = opti.variable(N)                                      # the controls come first, as in mechnet
+    X = opti.variable(4)
+    opti.set_initial(X, X_START)
+    opti.subject_to(X - ca.DM(X_START) == 0)                  # start values: rows, as in mechnet
+    J = 0
+    for k in range(N):
+        Xc = opti.variable(4, DEGREE)
+        opti.set_initial(Xc, ca.repmat(ca.DM(X_START), 1, DEGREE))
+        points = [X] + [Xc[:, j] for j in range(DEGREE)]
+        for j in range(1, DEGREE + 1):
+            slope = sum(C[r, j] * points[r] for r in range(DEGREE + 1))
+            opti.subject_to(h * f(points[j], U[k]) - slope == 0)
+            J = J + h * B[j] * U[k] ** 2
+        end = sum(D[r] * points[r] for r in range(DEGREE + 1))
+        X = opti.variable(4)
+        opti.set_initial(X, X_START)
+        opti.subject_to(end - X == 0)
+    opti.subject_to(X - ca.DM(X_END) == 0)
+    opti.subject_to(opti.bounded(-F_MAX, U, F_MAX))
+    opti.set_initial(U, 0.0)
+    opti.minimize(J)
+    opti.solver("ipopt", {"print_time": False, "detect_simple_bounds": simple_bounds,
+                          "ipopt.hessian_approximation": "exact"}, dict(IPOPT))
+    t1 = time.perf_counter()
+    try:
+        sol = opti.solve()
+        stats, obj = sol.stats(), float(sol.value(J))
+    except RuntimeError:
+        stats, obj = opti.stats(), float(opti.debug.value(J))
+    t2 = time.perf_counter()
+    fun = sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_"))
+    solve = stats.get("t_wall_total", t2 - t1)
+    return {"ok": bool(stats.get("success")), "total": t2 - t0, "solve": solve, "fun": fun,
+            "iter": int(stats.get("iter_count", 0)), "obj": obj, "status": stats.get("return_status")}
