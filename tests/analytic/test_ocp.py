@@ -318,3 +318,22 @@ def test_four_bar_shooting_idas_agrees(four_bar_motor, crank_collocation):
     assert sol.success, sol.stats["status"]
     assert np.max(np.abs(loop_residuals(cm, sol))) <= 1e-8
     assert sol.stats["objective"] == pytest.approx(crank_collocation.stats["objective"], rel=0.01)
+
+
+# ---- pendulum minimum-time swing-up (examples/pendulum_swing_up.py) -------------------------------
+
+def test_pendulum_minimum_time_agrees_between_the_methods():
+    # |tau| <= 4 N·m below m·g·L: the swing-up takes several swings. Collocation (N = 60, degree 3) and
+    # multiple shooting (CVODES at rtol = atol = 1e-10, warm-started from collocation) must agree on T
+    # within 1 % (the bound); both replay within 1e-3 (collocation) and 1e-6 (shooting)
+    scene = load_scene(Path(__file__).resolve().parents[2] / "examples" / "pendulum_swing_up.py")
+    cm = scene.model().compile()
+    prob = scene.build.__globals__["problem"](cm)
+    colloc = prob.solve(ocp.Collocation(N=60, degree=3))
+    shoot = prob.solve(ocp.MultipleShooting(N=60, integrator="cvodes", rtol=1e-10, atol=1e-10), guess=colloc)
+    assert colloc.success and shoot.success
+    assert abs(shoot.t_final - colloc.t_final) < 0.01 * colloc.t_final
+    assert colloc.verify()["max_deviation"] < 1e-3 and shoot.verify()["max_deviation"] < 1e-6
+    # time-optimal with a bounded torque: the torque sits on its bounds (bang-bang) in most intervals
+    holds = shoot.inputs["motor.tau"].values
+    assert np.mean(np.abs(np.abs(holds) - 4.0) < 0.04) > 0.8
