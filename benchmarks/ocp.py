@@ -27,18 +27,18 @@ Methods, each at N = 50, 100, 200 in the same run:
   * mechnet MultipleShooting(N, integrator="cvodes", rtol=1e-8, atol=1e-10) (limited-memory
     Hessian, its default) at N = 50, 100 (N = 200 with --shooting-200); no hand counterpart.
 
-Times: "total" = everything after the model is compiled: ocp.Problem + prob.solve (transcription,
-nlpsol construction, IPOPT, the Solution) for mechnet; Opti construction + opti.solve for the hand
-code. "solve" = the solver call alone (mechnet: sol.stats["wall_time"]; hand: the same call timed
-around opti.solve minus nothing — Opti builds its nlpsol inside solve(), so the hand "solve" is
-taken from the nlpsol's own stats as t_wall_total when CasADi reports it, else the IPOPT part plus
-the function part). "fun" = time in CasADi function evaluations (Σ t_wall_nlp_* of nlpsol's stats,
-sol.stats["function_time"]); "ipopt" = solve − fun (IPOPT's own linear algebra and bookkeeping,
-plus the iteration callback). Collocation: best of REPEATS runs; shooting: one run.
+Times (s): "total" = everything after the model is compiled: ocp.Problem + prob.solve
+(transcription, nlpsol construction, IPOPT, the Solution) for mechnet; the Opti construction and
+opti.solve() (which builds the nlpsol) for the hand code. "solve" = the IPOPT call alone (mechnet:
+sol.stats["wall_time"]; hand: the nlpsol's t_wall_total). "fun" = time in CasADi function
+evaluations (Σ t_wall_nlp_* of the nlpsol's stats = sol.stats["function_time"]); "ipopt" = solve −
+fun (IPOPT's own linear algebra, plus mechnet's per-iteration progress callback). "ratio" =
+mechnet/hand-b total. Collocation: best of REPEATS runs each (by total); shooting: one run.
 Objectives of mechnet and hand collocation must agree within 1e-6 relative (else FAIL).
 
 Usage:  python benchmarks/ocp.py [--quick] [--repeats 3] [--shooting-200] [--profile N]
-        (--quick: N = 50, 100; shooting at N = 50 only; best of 1)
+        (--quick: N = 50, 100; shooting at N = 50 only; best of 1.
+         --profile N: where mechnet's collocation time goes at N, against hand-b)
 """
 from __future__ import annotations
 
@@ -62,7 +62,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from chain3d import _cpu_model, _git_head  # noqa: E402  (importable: its work runs under __main__ only)
 
 M_CART, M_TIP, L, G = 1.0, 0.3, 0.5, 9.81     # kg, kg, m, m/s²
-T_SWING, F_MAX = 2.0, 20.0                    # s, N
+T_SWING, F_MAX = 2.5, 20.0                    # s, N (T = 2 s: 748-775 iterations at N = 200, see docs)
 X_START = (0.0, 0.0, 0.0, 0.0)                # rail.s, rail.v, hinge.phi, hinge.w: hanging at rest
 X_END = (0.0, 0.0, math.pi, 0.0)              # upright at rest, cart back at 0
 STATES = ("rail.s", "rail.v", "hinge.phi", "hinge.w")
@@ -133,7 +133,7 @@ def mechnet_problem(cm) -> ocp.Problem:
 
 def run_mechnet(cm, method) -> dict:
     t0 = time.perf_counter()
-    sol = mechnet_problem(cm).solve(method, ipopt=dict(IPOPT))
+    sol = mechnet_problem(cm).solve(method, ipopt=dict(IPOPT), progress=False)
     total = time.perf_counter() - t0
     s = sol.stats
     return {"ok": sol.success, "total": total, "solve": s["wall_time"], "fun": s["function_time"],
@@ -181,7 +181,7 @@ def run_hand(N, f, simple_bounds: bool) -> dict:
     opti.subject_to(opti.bounded(-F_MAX, U, F_MAX))
     opti.set_initial(U, 0.0)
     opti.minimize(J)
-    opti.solver("ipopt", {"print_time": False, "detect_simple_bounds": simple_bounds,
+    opti.solver("ipopt", {"print_time": False, "record_time": True, "detect_simple_bounds": simple_bounds,
                           "ipopt.hessian_approximation": "exact"}, dict(IPOPT))
     t1 = time.perf_counter()
     try:
@@ -191,6 +191,143 @@ def run_hand(N, f, simple_bounds: bool) -> dict:
         stats, obj = opti.stats(), float(opti.debug.value(J))
     t2 = time.perf_counter()
     fun = sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_"))
-    solve = stats.get("t_wall_total", t2 - t1)
+    solve = stats["t_wall_total"]
     return {"ok": bool(stats.get("success")), "total": t2 - t0, "solve": solve, "fun": fun,
-            "iter": int(stats.get("iter_count", 0)), "obj": obj, "status": stats.get("return_status")}
+            "iter": int(stats.get("iter_count", 0)), "obj": obj, "status": stats.get("return_status"), "stats": stats}
+
+
+# ---- where the time goes -------------------------------------------------------------------------
+
+def profile(cm, f, N) -> None:
+    """Per-function evaluation times of mechnet's NLP (rebuilt from its transcription, the same
+    objects prob.solve builds) against hand-b's; the size of the ODE and of the Lagrangian Hessian of
+    one ODE call; the build stages of prob.solve under cProfile."""
+    import cProfile
+    import pstats
+
+    dae = cm.dae
+    x, u = ca.SX.sym("x", 4), ca.SX.sym("u")
+    none = ca.SX(0, 1)
+    lam = ca.DM([1.0, 2.0, 3.0, 4.0])
+    for name, expr in (("mechnet", dae.ode(0.0, x, none, u, none, none)), ("hand", f(x, u))):
+        fn = ca.Function("ode", [x, u], [expr])
+        hess = ca.Function("h", [x, u], [ca.hessian(ca.dot(lam, expr), ca.vertcat(x, u))[0]])
+        print(f"  {name:8s} ODE: {fn.n_instructions():3d} instructions; Hessian of λ·f: {hess.n_instructions():3d}")
+    print(f"  mechnet ODE: {ca.Function('ode', [x, u], [dae.ode(0.0, x, none, u, none, none)])(x, u)}")
+
+    method = ocp.Collocation(N=N, degree=DEGREE)
+    prob = mechnet_problem(cm)
+    method.prepare(prob)
+    nlp, layout = method.transcribe(prob, None)
+    solver = ca.nlpsol("ocp", "ipopt", {"x": ca.vertcat(*nlp.w), "f": layout["objective"], "g": ca.vertcat(*nlp.g)},
+                       {"print_time": False, "record_time": True, "ipopt.hessian_approximation": "exact",
+                        **{f"ipopt.{k}": v for k, v in IPOPT.items()}})
+    solver(x0=nlp.w0, lbx=nlp.lbw, ubx=nlp.ubw, lbg=nlp.lbg, ubg=nlp.ubg)
+    mine = solver.stats()
+    hand = run_hand(N, f, True)
+    hand = dict(hand["stats"], fun_total=hand["fun"])
+    print(f"\n  N = {N}: per-call wall time of the NLP functions, µs (calls) — mechnet's NLP without its callback")
+    print(f"  {'function':12s} | {'mechnet':>16s} | {'hand-b':>16s} | ratio")
+    for key in ("nlp_f", "nlp_grad_f", "nlp_g", "nlp_jac_g", "nlp_hess_l", "nlp_grad"):
+        a, b = mine.get(f"t_wall_{key}", 0.0), hand.get(f"t_wall_{key}", 0.0)
+        na, nb = mine.get(f"n_call_{key}", 0), hand.get(f"n_call_{key}", 0)
+        pa, pb = (a / na * 1e6 if na else 0.0), (b / nb * 1e6 if nb else 0.0)
+        print(f"  {key:12s} | {pa:9.1f} ({na:4d}) | {pb:9.1f} ({nb:4d}) | {pa / pb if pb else math.nan:5.2f}")
+    print(f"  t_wall_total  mechnet {mine['t_wall_total']:.3f} s ({mine['iter_count']} it), "
+          f"hand-b {hand['t_wall_total']:.3f} s ({hand['iter_count']} it)")
+    f_mech = ca.Function("mechnet_ode", [x, u], [dae.ode(0.0, x, none, u, none, none)], ["x", "u"], ["xdot"])
+    swapped = run_hand(N, f_mech, True)
+    print(f"  hand-b with mechnet's ODE expression in place of the hand one: t_wall_total "
+          f"{swapped['solve']:.3f} s, fun {swapped['fun']:.3f} s ({swapped['iter']} it; hand-b fun "
+          f"{hand['fun_total']:.3f} s, mechnet fun {sum(v for k, v in mine.items() if k.startswith('t_wall_nlp_')):.3f} s)")
+
+    prof = cProfile.Profile()
+    prof.enable()
+    mechnet_problem(cm).solve(ocp.Collocation(N=N, degree=DEGREE), ipopt={**IPOPT, "max_iter": 0}, progress=False)
+    prof.disable()
+    print(f"\n  prob.solve with max_iter = 0 (build, one evaluation, the Solution), cProfile, top 12 by cumulative:")
+    pstats.Stats(prof).sort_stats("cumulative").print_stats(12)
+
+
+# ---- the run -------------------------------------------------------------------------------------
+
+def best(fn, repeats):
+    runs = [fn() for _ in range(repeats)]
+    return min(runs, key=lambda r: r["total"])
+
+
+def row(label, N, r, ratio="", verify=None):
+    ok = "ok" if r["ok"] else f"FAILED ({r['status']})"
+    dev = f"{verify:8.1e}" if verify is not None else f"{'-':>8s}"
+    print(f"{label:12s} {N:4d} | {r['total']:7.2f} {r['solve']:7.2f} {r['solve'] - r['fun']:7.2f} {r['fun']:7.2f} | "
+          f"{r['iter']:5d} {r['obj']:18.12g} | {dev} | {ratio:>5s} | {ok}")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="N = 50, 100; shooting at N = 50; best of 1")
+    ap.add_argument("--repeats", type=int, help=f"collocation runs per entry, best kept (default {REPEATS})")
+    ap.add_argument("--shooting-200", action="store_true", help="also multiple shooting at N = 200 (slow)")
+    ap.add_argument("--profile", type=int, metavar="N", help="only: where mechnet's collocation time goes at N")
+    args = ap.parse_args(argv)
+    ns = QUICK_NS if args.quick else NS
+    shooting_ns = QUICK_SHOOTING_NS if args.quick else SHOOTING_NS + ((200,) if args.shooting_200 else ())
+    repeats = args.repeats or (1 if args.quick else REPEATS)
+
+    print(f"ocp: python {platform.python_version()}, casadi {ca.__version__}, numpy {np.__version__}, "
+          f"mechnet {getattr(mn, '__version__', '?')}")
+    print(f"machine: {_cpu_model()}, {os.cpu_count()} cores, {platform.system()} {platform.release()}")
+    print(f"command: python {' '.join(sys.argv)}; mechnet at git {_git_head()}")
+    print(f"load average (1, 5, 15 min) at the start: {', '.join(f'{v:.2f}' for v in os.getloadavg())}")
+    print(f"cart-pole: M = {M_CART:g} kg, m = {M_TIP:g} kg, L = {L:g} m, g = {G:g}; T = {T_SWING:g} s, "
+          f"|u| <= {F_MAX:g} N; min ∫u² dt; Radau degree {DEGREE}, piecewise-constant u; IPOPT {IPOPT}")
+
+    t0 = time.perf_counter()
+    cm = build().compile()
+    t_compile = time.perf_counter() - t0
+    f = hand_ode()
+    deviation = check_model(cm, f)
+    print(f"compile {t_compile:.2f} s (once, not in 'total'); states {', '.join(cm.state_names)}")
+    print(f"model check: max |mechnet − hand| over 2 s (u = 5 N, tilted moving start) = {deviation:.1e} "
+          f"({'ok' if deviation < MODEL_TOL else 'FAIL'}, tolerance {MODEL_TOL:g})")
+    if args.profile:
+        profile(cm, f, args.profile)
+        return 0
+    print(f"collocation: best of {repeats} by total; shooting: one run\n")
+
+    head = (f"{'method':12s} {'N':>4s} | {'total':>7s} {'solve':>7s} {'ipopt':>7s} {'fun':>7s} | "
+            f"{'iter':>5s} {'objective':>18s} | {'verify':>8s} | {'ratio':>5s} | status")
+    print(head)
+    print("-" * len(head))
+    failures = []
+    for N in ns:
+        mine = best(lambda: run_mechnet(cm, ocp.Collocation(N=N, degree=DEGREE)), repeats)
+        rows_g = best(lambda: run_hand(N, f, False), repeats)
+        rows_b = best(lambda: run_hand(N, f, True), repeats)
+        verify = mine["sol"].verify(progress=False)["max_deviation"]
+        row("mechnet coll", N, mine, f"{mine['total'] / rows_b['total']:.2f}", verify)
+        row("hand-b", N, rows_b)
+        row("hand-g", N, rows_g)
+        for label, other in (("hand-b", rows_b), ("hand-g", rows_g)):
+            rel = abs(mine["obj"] - other["obj"]) / abs(other["obj"])
+            if not rel <= OBJ_RTOL or not (mine["ok"] and other["ok"]):
+                failures.append(f"N = {N}: mechnet {mine['obj']:.12g} vs {label} {other['obj']:.12g} "
+                                f"(relative {rel:.1e}; success {mine['ok']}/{other['ok']})")
+    print(f"(solve/ipopt/fun: see the docstring; ratio = mechnet total / hand-b total; verify: "
+          f"sol.verify()['max_deviation'], re-simulation at rtol 1e-10)")
+    for N in shooting_ns:
+        r = run_mechnet(cm, ocp.MultipleShooting(N=N, integrator="cvodes", rtol=1e-8, atol=1e-10))
+        row("mechnet ms", N, r, "", r["sol"].verify(progress=False)["max_deviation"])
+    print("(ms: MultipleShooting(N, integrator='cvodes', rtol=1e-8, atol=1e-10), limited-memory Hessian)\n")
+    if failures:
+        for line in failures:
+            print(f"FAIL objective agreement (collocation, rtol {OBJ_RTOL:g}): {line}")
+    else:
+        print(f"collocation objectives: mechnet = hand-b = hand-g within {OBJ_RTOL:g} relative at every N: ok")
+    print(f"wall time of this run: {time.perf_counter() - t0:.0f} s; load average at the end: "
+          f"{', '.join(f'{v:.2f}' for v in os.getloadavg())}")
+    return 1 if failures or deviation >= MODEL_TOL else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -3,8 +3,9 @@
 The states at the N + 1 nodes (and a DAE's algebraic variables there) are decision variables; each
 interval is integrated by SUNDIALS (CVODES for an ODE, IDAS for a DAE) or a fixed-step Runge-Kutta,
 with CasADi's forward and adjoint sensitivities for exact first derivatives. Integrals ride along as
-quadratures. Path constraints and bounds on named quantities are enforced at the nodes; state and
-input bounds bind the decision variables. The Hessian is limited-memory by default: an exact one
+quadratures. Path constraints and bounds on named quantities are enforced at the nodes (and, with
+`constraint_points=m`, at m - 1 more points inside each interval); state and input bounds bind the
+decision variables (at the nodes). The Hessian is limited-memory by default: an exact one
 needs second-order sensitivities of every interval.
 """
 from __future__ import annotations
@@ -20,12 +21,14 @@ INTEGRATORS = ("cvodes", "idas", "rk")
 
 class MultipleShooting(Transcription):
     """`MultipleShooting(N=50, integrator="cvodes" | "idas" | "rk", rtol=1e-8, atol=1e-10, steps=4,
-    controls="constant" | "linear")`; `steps`: Runge-Kutta steps per interval for "rk"."""
+    controls="constant" | "linear", constraint_points=1)`; `steps`: Runge-Kutta steps per interval for
+    "rk"; `constraint_points`: path constraints hold at this many evenly spaced points of each interval
+    (its end included), not only at the nodes."""
 
     default_hessian = "limited-memory"
 
     def __init__(self, N: int, integrator: str = "cvodes", controls: str = "constant", hessian: str | None = None,
-                 rtol: float = 1e-8, atol: float = 1e-10, steps: int = 4):
+                 rtol: float = 1e-8, atol: float = 1e-10, steps: int = 4, constraint_points: int = 1):
         super().__init__(N, controls, hessian)
         from ..core.arguments import whole_number
         from ..core.declarations import finite_number
@@ -35,6 +38,7 @@ class MultipleShooting(Transcription):
         self.rtol = finite_number(rtol, "rtol", OcpError)
         self.atol = finite_number(atol, "atol", OcpError)
         self.steps = whole_number(steps, "steps (Runge-Kutta steps per interval)", 1)
+        self.constraint_points = whole_number(constraint_points, "constraint_points (per interval)", 1)
 
     def _interval(self, prob):
         """F(x0, z0, p = [u_a; u_b; p; d; t0; h; T]) -> xf, zf, qf over one interval (time normalised).
@@ -65,7 +69,8 @@ class MultipleShooting(Transcription):
         opts = {"number_of_finite_elements": self.steps} if plugin == "rk" else \
             {"reltol": self.rtol, "abstol": self.atol, "quad_err_con": True, "disable_internal_warnings": True,
              "show_eval_warnings": False}
-        return ca.integrator("interval", plugin, spec, 0.0, 1.0, opts)
+        grid = [j / self.constraint_points for j in range(1, self.constraint_points + 1)]
+        return ca.integrator("interval", plugin, spec, 0.0, grid, opts)
 
     def transcribe(self, prob, guess):
         dae = prob.dae
@@ -107,10 +112,17 @@ class MultipleShooting(Transcription):
                 break
             ub = U[k + 1] if self.controls == "linear" else U[k]
             out = F(x0=X[k], z0=Z[k], p=ca.vertcat(U[k], ub, p, d_values, t_k, h, T))
-            nlp.constrain((out["xf"] - X[k + 1]) / ca.DM(xn), 0.0, 0.0,
+            m = self.constraint_points
+            for j in range(1, m):                  # path constraints between the nodes, on request
+                s = j / m
+                values = self.path_fn(t_k + s * h, out["xf"][:, j - 1], out["zf"][:, j - 1] if nz else ca.MX(0, 1),
+                                      U[k] + s * (ub - U[k]), p, d_values, T)
+                if values.numel():
+                    nlp.constrain(values, self.path_lower, self.path_upper, self.path_labels, (k + s) / N)
+            nlp.constrain((out["xf"][:, -1] - X[k + 1]) / ca.DM(xn), 0.0, 0.0,
                           [f"continuity of {n}" for n in dae.x_names], (k + 1) / N)
             if "qf" in F.name_out():
-                integrals = integrals + out["qf"]
+                integrals = integrals + out["qf"][:, -1]
         start_values = self.start_fn(0.0, X[0], Z[0], u_at(0), p, d_values, T)
         end_values = self.end_fn(T, X[N], Z[N], u_at(N), p, d_values, T)
         boundary = self.boundary_function(prob)(start_values, end_values,
