@@ -108,15 +108,18 @@ def build(d_bearing: float = D_BEARING, tau: float | None = TAU, theta0: float =
 
 
 def optimize(cm, N: int = 40, T: float = 1.0):
-    """Minimal-effort half turn of the crank, rest to rest in T seconds, through the motor and gear: the
-    loop's closure is part of the optimal control problem (collocation on the index-reduced DAE). `cm` is
-    the constant-torque scene; the problem needs the torque as an input, so it compiles `build(tau=None)`."""
+    """Minimal-effort move of the crank by 1 rad, rest to rest in T seconds, through the motor and gear:
+    the loop's closure is part of the optimal control problem (collocation on the index-reduced DAE).
+    `cm` is the constant-torque scene; the problem needs the torque as an input, so it compiles
+    `build(tau=None)`. The states are the start's choice (the coupler joint's angle and speed); past
+    about 1.3 rad of crank travel another choice is better and the solution is refused
+    (`sol.stats["selection"]`)."""
     from mechnet import ocp
 
     driven = build(tau=None).compile()
     prob = ocp.Problem(driven, t_final=T)
     prob.bounds("motor_torque.tau", -1.0, 1.0)
-    prob.subject_to(prob.at_end(prob.var("crank_joint.phi")) == THETA0 + np.pi)
+    prob.subject_to(prob.at_end(prob.var("crank_joint.phi")) == THETA0 + 1.0)
     prob.subject_to(prob.at_end(prob.var("crank_joint.w")) == 0.0)
     prob.minimize(prob.integral(prob.var("motor_torque.tau") ** 2))
     return prob.solve(ocp.Collocation(N=N, degree=3))

@@ -142,6 +142,7 @@ def _optimal_control(scene, cm, png: Path) -> None:
     print(f"optimal control ({stats['method']}, N = {stats['N']}): {stats['status']} after {stats['iterations']} "
           f"iterations in {time.perf_counter() - t0:.3f} s; objective {stats['objective']:.6g}, "
           f"t_final = {sol.t_final:.6g} s")
+    print(f"  state selection: {stats['selection']}")
     check = sol.verify()
     print(f"  replayed by cm.simulate: max state deviation {check['max_deviation']:.3e} ({check['worst']})")
     fig = sol.plot(title=f"{scene.title} — optimal control")
@@ -152,6 +153,11 @@ def _optimal_control(scene, cm, png: Path) -> None:
     finally:
         plt.close(fig)
     print(f"wrote {png}")
+    if not sol.success:
+        worst = stats["worst_constraint"]
+        raise MechnetError(f"the optimal control problem failed: {sol!r}" +
+                           (f"; largest violation {stats['max_violation']:.3g} in {worst[0]} at t = {worst[1]:.6g} s"
+                            if worst else ""))
 
 
 def _demo(args: argparse.Namespace) -> int:

@@ -181,3 +181,34 @@ def test_bounds_on_an_observed_quantity_infeasible(prob):
     what, t = sol.stats["worst_constraint"]
     assert what == "bounds on mass.a" and 0.0 <= t <= 1.0
     assert sol.stats["max_violation"] == pytest.approx(1.0, abs=1e-6)
+
+
+def test_linear_controls_need_two_collocation_points():
+    with pytest.raises(ocp.OcpError, match="degree >= 2"):
+        ocp.Collocation(N=10, degree=1, controls="linear")
+
+
+def test_unknown_ipopt_option_is_named(prob):
+    prob.minimize(prob.integral(prob.var("push.f") ** 2))
+    with pytest.raises(ocp.OcpError, match="IPOPT refused the options"):
+        prob.solve(ocp.Collocation(N=4), ipopt={"no_such_option": 3})
+
+
+def test_shooting_tolerances_must_be_positive():
+    with pytest.raises(ocp.OcpError, match="must be > 0"):
+        ocp.MultipleShooting(N=4, rtol=-1.0)
+
+
+def test_a_nan_in_a_constraint_is_refused(prob):
+    with pytest.raises(ocp.OcpError, match="NaN or infinite"):
+        prob.subject_to(prob.var("mass.s") <= math.nan)
+
+
+def test_a_fixed_parameter_outside_its_bounds_is_refused():
+    m = mn.Model("di_mass")
+    mass = m.add(tr.Mass(name="mass", m=mn.tunable(1.0), s_start=0.0, v_start=0.0))
+    push = m.add(tr.Force(name="push"))
+    m.connect(push.flange, mass.flange_a)
+    prob = ocp.Problem(m.compile(), t_final=1.0)
+    with pytest.raises(ocp.OcpError, match="free it with prob.free_parameter"):
+        prob.bounds("mass.m", 2.0, 3.0)

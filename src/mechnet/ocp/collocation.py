@@ -3,7 +3,8 @@
 On each of N intervals the states are a polynomial of degree `degree` through the interval's start and
 its collocation points (Radau or Legendre); the ODE holds at the collocation points, the algebraic
 equations (a loop's dependent coordinates) at the collocation points, at t = 0 and at the end. Path
-constraints and bounds on named quantities are enforced at t = 0 and at every collocation point;
+constraints and bounds on named quantities are enforced at t = 0 and at every collocation point (with
+Legendre points also at the end; the interval boundaries between are not collocation points);
 bounds on states and inputs are bounds of the decision variables themselves. Integrals use the
 collocation quadrature. The states are the start point's selection (`cm.dae`); `Solution.verify`
 checks it held.
@@ -18,20 +19,28 @@ from .transcription import Nlp, Transcription, final_time_guess, guess_trajector
 
 
 def coefficients(degree: int, scheme: str):
-    """(tau, C, D, B): collocation times in [0, 1] with 0 first; C[r, j] the derivative at tau_j of the
-    Lagrange polynomial through tau_r; D[r] its value at 1; B[r] its integral over [0, 1]."""
+    """(tau, C, D, W): collocation times in [0, 1] with 0 first; C[r, j] the derivative at tau_j of the
+    Lagrange polynomial through all the tau with 1 at tau_r; D[r] its value at 1; W[j - 1] the
+    quadrature weight of collocation point j (the integral of the polynomial through tau_1..tau_d alone
+    that is 1 at tau_j: the integrand is known at the collocation points only; Radau with one point
+    would otherwise weigh it by 1/2)."""
     tau = np.array([0.0] + list(ca.collocation_points(degree, scheme)))
     n = tau.size
-    C, D, B = np.zeros((n, n)), np.zeros(n), np.zeros(n)
+    C, D = np.zeros((n, n)), np.zeros(n)
     for r in range(n):
-        poly = np.poly1d([1.0])
-        for k in range(n):
-            if k != r:
-                poly *= np.poly1d([1.0, -tau[k]]) / (tau[r] - tau[k])
+        poly = _lagrange(tau, r)
         D[r] = poly(1.0)
         C[r] = np.polyder(poly)(tau)
-        B[r] = np.polyint(poly)(1.0)
-    return tau, C, D, B
+    W = np.array([np.polyint(_lagrange(tau[1:], j))(1.0) for j in range(degree)])
+    return tau, C, D, W
+
+
+def _lagrange(points, r) -> np.poly1d:
+    poly = np.poly1d([1.0])
+    for k, point in enumerate(points):
+        if k != r:
+            poly *= np.poly1d([1.0, -point]) / (points[r] - point)
+    return poly
 
 
 class Collocation(Transcription):
@@ -44,22 +53,25 @@ class Collocation(Transcription):
         self.degree = whole_number(degree, "degree", 1)
         if scheme not in ("radau", "legendre"):
             raise OcpError(f"scheme = {scheme!r}: choose 'radau' or 'legendre'")
+        if controls == "linear" and self.degree < 2:
+            raise OcpError("controls='linear' needs degree >= 2: with one collocation point per interval the "
+                           "control is seen at one time only, and its slope is left free")
         self.scheme = scheme
 
     def transcribe(self, prob, guess):
         dae = prob.dae
         N, d = self.N, self.degree
-        tau, C, D, B = coefficients(d, self.scheme)
+        tau, C, D, W = coefficients(d, self.scheme)
         nx_, nz, nu = dae.x.numel(), dae.z.numel(), dae.u.numel()
         xn = np.array(dae.x_nominal, dtype=float) if nx_ else np.zeros(0)
         zn = np.array(dae.z_nominal, dtype=float) if nz else np.zeros(0)
         nlp = Nlp()
-        T = self.final_time(prob, nlp)
-        p, p_free = self.parameters(prob, nlp)
+        T = self.final_time(prob, nlp, guess)
+        p = self.parameters(prob, nlp)
         d_values = ca.DM(list(dae.d_value)) if dae.d.numel() else ca.DM(0, 1)
         h = T / N
         x0, z0, u0 = self.start_point(prob)
-        T_guess = final_time_guess(prob)
+        T_guess = final_time_guess(prob, guess)
         grid = np.array([(k + tj) * T_guess / N for k in range(N) for tj in tau] + [T_guess])
         Xg, Zg, Ug = guess_trajectory(prob, guess, grid, x0, z0, u0)
         xlo, xhi = self.state_bounds(prob)
@@ -102,7 +114,7 @@ class Collocation(Transcription):
                     nlp.constrain(dae.alg(t_j, Xc[j - 1], Zc[j - 1], u_j, p, d_values), 0.0, 0.0,
                                   _alg_labels(dae), (k + tau[j]) / N)
                 self._path(nlp, at_point(self.path_fn, t_j, Xc[j - 1], Zc[j - 1], u_j), (k + tau[j]) / N)
-                integrals = integrals + h * B[j] * at_point(self.integrand_fn, t_j, Xc[j - 1], Zc[j - 1], u_j)
+                integrals = integrals + h * W[j - 1] * at_point(self.integrand_fn, t_j, Xc[j - 1], Zc[j - 1], u_j)
                 read["t"].append(t_j)
                 read["x"].append(Xc[j - 1])
                 read["z"].append(Zc[j - 1])
@@ -116,14 +128,15 @@ class Collocation(Transcription):
         if nz:
             nlp.constrain(dae.alg(T, X, Ze, u_end, p, d_values), 0.0, 0.0, _alg_labels(dae), 1.0)
         end_values = at_point(self.end_fn, T, X, Ze, u_end)
-        if self.scheme == "legendre":           # the end is not a collocation point: add it to the output
+        if self.scheme == "legendre":           # the end is not a collocation point: constrain it, output it
+            self._path(nlp, at_point(self.path_fn, T, X, Ze, u_end), 1.0)
             read["t"].append(T)
             read["x"].append(X)
             read["z"].append(Ze)
             read["u"].append(u_end)
         boundary = self.boundary_function(prob)(start_values, end_values,
                                                 integrals if isinstance(integrals, ca.MX) else ca.MX(0, 1),
-                                                T, p_free)
+                                                T, self.parameter_values(prob, p))
         nlp.constrain(boundary[1:], [c.lower for c in prob.point], [c.upper for c in prob.point],
                       [c.label for c in prob.point], 1.0)
         layout = {"objective": boundary[0], "read": ["t", "x", "z", "u", "U", "T", "p"],

@@ -43,6 +43,12 @@ class Constraint:
     label: str             # what the user wrote, for reports
 
 
+def _constants(expr) -> list:
+    """The numbers written into an expression (a NaN bound in `x <= nan` is one)."""
+    f = ca.Function("f", ca.symvar(expr), [expr])
+    return [f.instruction_constant(k) for k in range(f.n_instructions()) if f.instruction_id(k) == ca.OP_CONST]
+
+
 class Problem:
     """`Problem(cm, t_final=T)` or `t_final=(lower, upper)` for a free final time. The controls are the
     model's inputs; `start={name: value}` adds fixed start values to the model's own (as in simulate)."""
@@ -119,7 +125,7 @@ class Problem:
             raise OcpError(f"{kind}(...) takes an expression along the path (of prob.var(...) and prob.time), "
                            f"not one holding at_start/at_end/integral")
         name = f"{kind}_{len(self._boundary)}"
-        sym = ca.SX.sym(name)
+        sym = ca.SX.sym(f"{kind}({expr})")             # as reports show it
         self._boundary[name] = (kind, expr)
         self._boundary_syms[name] = sym
         return sym
@@ -131,6 +137,11 @@ class Problem:
         tunable parameter freed by `free_parameter`."""
         self.var(name)
         lo, hi = self._pair(lower, upper, f"bounds({name!r})")
+        if name in self.dae.p_names and name not in self.free_params:
+            value = self.p_value[self.dae.p_names.index(name)]
+            if not lo <= value <= hi:
+                raise OcpError(f"bounds({name!r}, {lo:g}, {hi:g}): the parameter is fixed at {value:g}; free it with "
+                               f"prob.free_parameter({name!r}, ...) to optimise it")
         if name in self.start and not lo <= self.start[name] <= hi:
             raise OcpError(f"bounds({name!r}, {lo:g}, {hi:g}) cannot hold at t = 0, where the start value fixes "
                            f"{name} = {self.start[name]:g}")
@@ -153,13 +164,15 @@ class Problem:
         if isinstance(constraint, (bool, np.bool_)):
             raise OcpError(f"subject_to({constraint!r}): the comparison was decided in Python (no prob.var(...) "
                            f"in it); write it with CasADi expressions")
-        if not isinstance(constraint, (ca.SX, ca.MX, ca.DM)):
-            raise OcpError(f"subject_to takes a comparison of expressions such as prob.var('x') <= 1, "
-                           f"got {type(constraint).__name__}")
+        if not isinstance(constraint, (ca.SX, ca.DM)):
+            raise OcpError(f"subject_to takes a comparison of the problem's expressions (prob.var, at_end, ...; "
+                           f"CasADi SX) such as prob.var('x') <= 1, got {type(constraint).__name__}")
         constraint = ca.SX(constraint)
         for k in range(constraint.numel()):
             item = constraint[k]
             text = label or str(item)
+            if not all(np.isfinite(_constants(item))):
+                raise OcpError(f"subject_to({text}): holds a NaN or infinite number")
             if item.is_op(ca.OP_LE) or item.is_op(ca.OP_LT):
                 expr, lo, hi = item.dep(0) - item.dep(1), -math.inf, 0.0
             elif item.is_op(ca.OP_EQ):
@@ -233,7 +246,13 @@ class Problem:
         return self.dae.p_names.index(name)
 
     def _path_vector(self):
-        return ca.vertcat(self.time, *self._vars.values())
+        """What varies along the path: time and every named quantity but the tunable parameters (constant
+        over the horizon, so they may appear in the objective and boundary constraints too)."""
+        return ca.vertcat(self.time, *[v for n, v in self._vars.items() if n not in self.dae.p_names])
+
+    def parameter_vars(self) -> list[str]:
+        """The tunable parameters named by prob.var(...), in the order the boundary function takes them."""
+        return [n for n in self._vars if n in self.dae.p_names]
 
     def _boundary_vector(self):
         return ca.vertcat(*self._boundary_syms.values()) if self._boundary_syms else ca.SX(0, 1)

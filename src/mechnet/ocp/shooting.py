@@ -37,6 +37,8 @@ class MultipleShooting(Transcription):
         self.integrator = integrator
         self.rtol = finite_number(rtol, "rtol", OcpError)
         self.atol = finite_number(atol, "atol", OcpError)
+        if not (self.rtol > 0 and self.atol > 0):
+            raise OcpError(f"rtol = {rtol!r}, atol = {atol!r}: the integrator's tolerances must be > 0")
         self.steps = whole_number(steps, "steps (Runge-Kutta steps per interval)", 1)
         self.constraint_points = whole_number(constraint_points, "constraint_points (per interval)", 1)
 
@@ -80,12 +82,12 @@ class MultipleShooting(Transcription):
         zn = np.array(dae.z_nominal, dtype=float) if nz else np.zeros(0)
         F = self._interval(prob)
         nlp = Nlp()
-        T = self.final_time(prob, nlp)
-        p, p_free = self.parameters(prob, nlp)
+        T = self.final_time(prob, nlp, guess)
+        p = self.parameters(prob, nlp)
         d_values = ca.DM(list(dae.d_value)) if dae.d.numel() else ca.DM(0, 1)
         h = T / N
         x0, z0, u0 = self.start_point(prob)
-        grid = np.linspace(0.0, final_time_guess(prob), N + 1)
+        grid = np.linspace(0.0, final_time_guess(prob, guess), N + 1)
         Xg, Zg, Ug = guess_trajectory(prob, guess, grid, x0, z0, u0)
         xlo, xhi = self.state_bounds(prob)
         ulo, uhi = self.input_bounds(prob)
@@ -127,7 +129,7 @@ class MultipleShooting(Transcription):
         end_values = self.end_fn(T, X[N], Z[N], u_at(N), p, d_values, T)
         boundary = self.boundary_function(prob)(start_values, end_values,
                                                 integrals if isinstance(integrals, ca.MX) else ca.MX(0, 1),
-                                                T, p_free)
+                                                T, self.parameter_values(prob, p))
         nlp.constrain(boundary[1:], [c.lower for c in prob.point], [c.upper for c in prob.point],
                       [c.label for c in prob.point], 1.0)
         times = ca.vertcat(*[k * h for k in range(N + 1)]).T

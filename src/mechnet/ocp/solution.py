@@ -63,23 +63,28 @@ class Solution:
         dae = prob.dae
         initial = {n: float(v) for n, v in zip(dae.x_names + dae.z_names,
                                                  np.concatenate([self._x[:, 0], self._z[:, 0]]))}
-        run = dict(t_out=self.t, inputs=self.inputs, rtol=rtol, atol=atol,
-                   params={n: float(self._p[k]) for k, n in enumerate(dae.p_names)}, **simulate_kw)
+        run = {"t_out": self.t, "inputs": self.inputs, "rtol": rtol, "atol": atol,
+               "params": {n: float(self._p[k]) for k, n in enumerate(dae.p_names)}, **simulate_kw}
         try:       # the problem's start values, its solution's start as the guess (the same branch)
             res = prob.cm.simulate(self.t_final, start=prob.start, guess=initial, **run)
         except InitializationError:      # the start was optimised: the solution's states fix it
             res = prob.cm.simulate(self.t_final, start={n: initial[n] for n in dae.x_names}, **run)
-        k = min(res.t.size, self.t.size)
-        deviation = {n: float(np.max(np.abs(res[n][:k] - self._x[j, :k]))) for j, n in enumerate(dae.x_names)}
+        # the run's times hold the solution's and the tables' knots (time events): compare at the former
+        scale = max(1.0, abs(self.t_final))
+        rows = np.searchsorted(res.t, self.t - 1e-12 * scale)
+        found = (rows < res.t.size) & (np.abs(res.t[np.minimum(rows, res.t.size - 1)] - self.t) <= 1e-9 * scale)
+        rows, cols = rows[found], np.flatnonzero(found)
+        deviation = {n: float(np.max(np.abs(res[n][rows] - self._x[j, cols]), initial=0.0))
+                     for j, n in enumerate(dae.x_names)}
         worst = max(deviation, key=deviation.get) if deviation else None
         return {"max_deviation": deviation[worst] if worst else 0.0, "worst": worst, "deviation": deviation,
-                "result": res, "complete": res.success and k == self.t.size}
+                "result": res, "complete": res.success and bool(found.all())}
 
     def __repr__(self):
-        status = "ok" if self.success else f"FAILED ({self.stats['status']})"
+        status = "ok" if self.success else \
+            f"FAILED ({self.stats['status'] if self.stats['status'] != 'Solve_Succeeded' else self.stats['selection']})"
         return (f"<Solution {status}: objective {self.stats['objective']:.6g}, t_final = {self.t_final:g} s, "
                 f"{self.stats['iterations']} iterations>")
-
 
 
 def _selection_held(prob, t, X, Z, U, p, d) -> tuple[bool, str]:

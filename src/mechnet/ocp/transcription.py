@@ -21,6 +21,9 @@ from .problem import OcpError, Problem
 from .progress import IterationBar
 
 
+NLPSOL_OPTIONS = ("print_time", "expand", "record_time", "error_on_fail", "calc_lam_p", "calc_lam_x")
+
+
 @dataclass
 class Nlp:
     """Decision variables (scaled) and constraints, each constraint row labelled (what, time)."""
@@ -92,7 +95,7 @@ class Transcription:
 
         self.path_names = [c.label for c in prob.path]
         bounded = [(n, lo, hi) for n, (lo, hi) in prob.bounds_of.items()
-                   if n not in dae.x_names and n not in dae.u_names]
+                   if n not in dae.x_names and n not in dae.u_names and n not in dae.p_names]
         self.path_fn = of_point([c.expr for c in prob.path] + [prob.var(n) for n, _, _ in bounded])
         self.path_lower = [c.lower for c in prob.path] + [lo for _, lo, _ in bounded]
         self.path_upper = [c.upper for c in prob.path] + [hi for _, _, hi in bounded]
@@ -118,27 +121,36 @@ class Transcription:
         sv = ca.vertcat(*[syms[n] for n, _ in kinds["start"]]) if kinds["start"] else ca.SX(0, 1)
         ev = ca.vertcat(*[syms[n] for n, _ in kinds["end"]]) if kinds["end"] else ca.SX(0, 1)
         iv = ca.vertcat(*[syms[n] for n, _ in kinds["integral"]]) if kinds["integral"] else ca.SX(0, 1)
-        pvars = ca.vertcat(*[prob.var(n) for n in prob.free_params]) if prob.free_params else ca.SX(0, 1)
+        names = prob.parameter_vars()
+        pvars = ca.vertcat(*[prob._vars[n] for n in names]) if names else ca.SX(0, 1)
         exprs = [prob.objective] + [c.expr for c in prob.point]
         return ca.Function("boundary", [sv, ev, iv, prob.t_final, pvars], [ca.vertcat(*exprs)])
 
+    @staticmethod
+    def parameter_values(prob: Problem, p):
+        """The parameters the boundary function takes (`Problem.parameter_vars`) out of the vector p."""
+        names = prob.parameter_vars()
+        return ca.vertcat(*[p[prob.dae.p_names.index(n)] for n in names]) if names else ca.MX(0, 1)
+
     def parameters(self, prob: Problem, nlp: Nlp):
-        """The model's parameter vector with the freed ones as decision variables, and those alone."""
+        """The model's parameter vector, the freed ones decision variables within their bounds (those of
+        free_parameter and of bounds(...), both)."""
         values = [ca.MX(v) for v in prob.p_value]
-        free = []
         for name, (lo, hi) in prob.free_params.items():
             k = prob.dae.p_names.index(name)
-            scale = max(abs(prob.p_value[k]), 1.0)
-            guess = min(max(prob.p_value[k], lo), hi)
-            values[k] = nlp.variable(f"p_{name}", 1, guess, lo, hi, scale)
-            free.append(values[k])
-        return (ca.vertcat(*values) if values else ca.MX(0, 1)), (ca.vertcat(*free) if free else ca.MX(0, 1))
+            more = prob.bounds_of.get(name, (lo, hi))
+            lo, hi = max(lo, more[0]), min(hi, more[1])
+            if lo > hi:
+                raise OcpError(f"parameter {name}: free_parameter and bounds leave no value ({lo:g} > {hi:g})")
+            values[k] = nlp.variable(f"p_{name}", 1, min(max(prob.p_value[k], lo), hi), lo, hi,
+                                     max(abs(prob.p_value[k]), 1.0))
+        return ca.vertcat(*values) if values else ca.MX(0, 1)
 
-    def final_time(self, prob: Problem, nlp: Nlp):
+    def final_time(self, prob: Problem, nlp: Nlp, guess=None):
         lo, hi = prob.t_bounds
         if lo == hi:
             return ca.MX(lo)
-        return nlp.variable("t_final", 1, final_time_guess(prob), lo, hi, hi)
+        return nlp.variable("t_final", 1, final_time_guess(prob, guess), lo, hi, hi)
 
     def control_rates(self, prob: Problem, nlp: Nlp, U: list, h) -> None:
         """Rate bounds between successive control nodes: (U[k+1] - U[k]) / h."""
@@ -177,18 +189,25 @@ class Transcription:
 
     def solve(self, prob: Problem, guess, ipopt: dict, progress, verbose):
         from .solution import Solution
+        from ..core.arguments import mapping
+        ipopt = mapping(ipopt, "solve(ipopt=...)")
         with BUILD_LOCK:
             self.prepare(prob)
             nlp, layout = self.transcribe(prob, guess)
             w, g = ca.vertcat(*nlp.w), ca.vertcat(*nlp.g)
             opts = {"ipopt.print_level": 5 if verbose else 0, "ipopt.sb": "yes", "print_time": False,
                     "ipopt.hessian_approximation": self.hessian}
-            opts.update({k if k.startswith("ipopt.") or k in ("print_time",) else f"ipopt.{k}": v
-                         for k, v in ipopt.items()})
-            bar = IterationBar(w.numel(), g.numel(), 0, int(opts.get("ipopt.max_iter", 3000)), progress)
-            opts["iteration_callback"] = bar
-            solver = ca.nlpsol("ocp", "ipopt", {"x": w, "f": layout["objective"], "g": g}, opts)
-            layout["w"] = nlp.w
+            opts.update({k if "." in k or k in NLPSOL_OPTIONS else f"ipopt.{k}": v for k, v in ipopt.items()})
+            try:
+                max_iter = int(opts.get("ipopt.max_iter", 3000))
+                bar = IterationBar(w.numel(), g.numel(), 0, max_iter, progress)
+                opts["iteration_callback"] = bar
+                solver = ca.nlpsol("ocp", "ipopt", {"x": w, "f": layout["objective"], "g": g}, opts)
+            except (RuntimeError, TypeError, ValueError) as exc:
+                raise OcpError(f"solve(ipopt={ipopt!r:.120}): IPOPT refused the options: "
+                               f"{str(exc).strip().splitlines()[-1]}") from None
+            read = ca.Function("trajectories", [w], [layout[k] for k in layout["read"]])
+            final_time = ca.Function("t_final", [w], [layout["T"]])
         started = _time.perf_counter()
         try:
             with captured() as messages:
@@ -201,24 +220,31 @@ class Transcription:
         g_opt = np.asarray(out["g"]).ravel()
         violation = np.maximum(np.asarray(nlp.lbg) - g_opt, g_opt - np.asarray(nlp.ubg))
         violation = np.where(np.isfinite(violation), violation, 0.0)
-        worst = int(np.argmax(violation)) if violation.size else None
+        worst = int(np.argmax(violation)) if violation.size and violation.max() > 0 else None
+        t_final = float(final_time(w_opt))
         info = {"success": bool(stats.get("success")), "status": stats.get("return_status"),
                 "iterations": int(stats.get("iter_count", 0)), "wall_time": wall,
                 "function_time": sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_")),
+                "function_times": {k[len("t_wall_"):]: v for k, v in stats.items() if k.startswith("t_wall_nlp_")},
                 "objective": float(out["f"]), "method": type(self).__name__, "N": self.N,
                 "max_violation": float(violation[worst]) if worst is not None else 0.0,
-                "worst_constraint": _located(nlp.labels[worst], w_opt, layout) if worst is not None else None,
+                "worst_constraint": (nlp.labels[worst][0], float(nlp.labels[worst][1]) * t_final)
+                if worst is not None else None,
                 "solver_messages": messages}
-        trajectories = ca.Function("trajectories", [w], [layout[k] for k in layout["read"]])(w_opt)
-        return Solution(prob, self, dict(zip(layout["read"], (np.asarray(v) for v in trajectories))), info)
+        with BUILD_LOCK:
+            trajectories = read(w_opt)
+            return Solution(prob, self, dict(zip(layout["read"], (np.asarray(v) for v in trajectories))), info)
 
     def transcribe(self, prob: Problem, guess):            # pragma: no cover - abstract
         raise NotImplementedError
 
 
-def final_time_guess(prob: Problem) -> float:
-    """A free final time starts at the geometric mean of its bounds (the guess's time grid spans it)."""
+def final_time_guess(prob: Problem, guess=None) -> float:
+    """A free final time starts where the guess ends (a previous Solution or a Result, within the bounds),
+    else at the geometric mean of its bounds; the guess's time grid spans it."""
     lo, hi = prob.t_bounds
+    if guess is not None and hasattr(guess, "t") and len(guess.t):
+        return float(min(max(float(np.asarray(guess.t)[-1]), lo), hi))
     return math.sqrt(lo * hi)
 
 
@@ -249,9 +275,3 @@ def guess_trajectory(prob: Problem, guess, times: np.ndarray, x0, z0, u0):
     U = np.column_stack([column(n, v) for n, v in zip(dae.u_names, u0)])
     return X, Z, U
 
-
-def _located(label, w_opt, layout):
-    """(what, time in s) of a constraint labelled (what, share of the horizon)."""
-    what, share = label
-    t_final = float(ca.Function("T", [ca.vertcat(*layout["w"])], [layout["T"]])(w_opt))
-    return what, float(share) * t_final
