@@ -24,17 +24,28 @@ Methods, each at N = 50, 100, 200 in the same run:
     nlpsol option "detect_simple_bounds" is set, which also moves the start and end rows (each on a
     single variable) into the bounds. Both hand variants are timed: "hand-g" (rows) and "hand-b"
     (detect_simple_bounds);
+  * rockit (rockit-meco, optional: skipped with a note if `import rockit` fails): the same ODE
+    (hand_ode), bounds, boundary values, ∫u² (ocp.integral), initial guess and IPOPT options, with
+    DirectCollocation(N, M=1, degree=3, scheme="radau"). Its variables are ordered per interval
+    (X_k, U_k, collocation states) and the bounds stay rows, as in hand-g. Its collocation rows are
+    (Σ C x)/h − f, i.e. the hand rows divided by h, so IPOPT's line search takes other steps.
+    Two variants: "rockit" (as written above, one run, N = 50 only: thousands of iterations) and
+    "rockit-s" (set_der(x, f, scale=1/h), which gives back the rows Σ C x − h f; all N, best of REPEATS);
   * mechnet MultipleShooting(N, integrator="cvodes", rtol=1e-8, atol=1e-10) (limited-memory
     Hessian, its default) at N = 50, 100 (N = 200 with --shooting-200); no hand counterpart.
 
 Times (s): "total" = everything after the model is compiled: ocp.Problem + prob.solve
 (transcription, nlpsol construction, IPOPT, the Solution) for mechnet; the Opti construction and
-opti.solve() (which builds the nlpsol) for the hand code. "solve" = the IPOPT call alone (mechnet:
-sol.stats["wall_time"]; hand: the nlpsol's t_wall_total). "fun" = time in CasADi function
+opti.solve() (which builds the nlpsol) for the hand code; rockit.Ocp through ocp.solve() for
+rockit. "solve" = the IPOPT call alone (mechnet: sol.stats["wall_time"]; hand and rockit: the
+nlpsol's t_wall_total). "fun" = time in CasADi function
 evaluations (Σ t_wall_nlp_* of the nlpsol's stats = sol.stats["function_time"]); "ipopt" = solve −
 fun (IPOPT's own linear algebra, plus mechnet's per-iteration progress callback). "ratio" =
-mechnet/hand-b total. Collocation: best of REPEATS runs each (by total); shooting: one run.
-Objectives of mechnet and hand collocation must agree within 1e-6 relative (else FAIL).
+mechnet/hand-b total; "ratio rk" = mechnet/rockit-s total. Collocation: best of REPEATS runs each
+(by total); shooting and the unscaled rockit: one run. Objectives of mechnet collocation, the hand
+code and both rockit variants must agree within 1e-6 relative (else FAIL): it is the same NLP
+(rows scaled differently for rockit), and with piecewise-constant u the Radau quadrature of u² is
+exactly h Σ u_k² in all of them.
 
 Usage:  python benchmarks/ocp.py [--quick] [--repeats 3] [--shooting-200] [--profile N]
         (--quick: N = 50, 100; shooting at N = 50 only; best of 1.
@@ -48,6 +59,7 @@ import os
 import platform
 import sys
 import time
+from importlib import metadata
 from pathlib import Path
 
 import casadi as ca
@@ -58,6 +70,11 @@ from mechnet import ocp
 from mechnet.components import multibody as mb
 from mechnet.components import translational as tr
 
+try:
+    import rockit
+except ImportError:                           # optional: the `bench` extra installs rockit-meco
+    rockit = None
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from chain3d import _cpu_model, _git_head  # noqa: E402  (importable: its work runs under __main__ only)
 
@@ -67,6 +84,7 @@ X_START = (0.0, 0.0, 0.0, 0.0)                # rail.s, rail.v, hinge.phi, hinge
 X_END = (0.0, 0.0, math.pi, 0.0)              # upright at rest, cart back at 0
 STATES = ("rail.s", "rail.v", "hinge.phi", "hinge.w")
 NS, QUICK_NS = (50, 100, 200), (50, 100)
+ROCKIT_UNSCALED_NS = (50,)                    # 2267 iterations, about 20 s, at N = 50
 SHOOTING_NS, QUICK_SHOOTING_NS = (50, 100), (50,)
 REPEATS = 3
 DEGREE = 3
@@ -196,6 +214,37 @@ def run_hand(N, f, simple_bounds: bool) -> dict:
             "iter": int(stats.get("iter_count", 0)), "obj": obj, "status": stats.get("return_status"), "stats": stats}
 
 
+# ---- rockit -------------------------------------------------------------------------------------
+
+def run_rockit(N, f, scaled: bool) -> dict:
+    """rockit's DirectCollocation on the hand ODE; scaled: collocation rows multiplied by h
+    (set_der scale = 1/h), which makes them the hand code's Σ C x − h f."""
+    t0 = time.perf_counter()
+    prob = rockit.Ocp(T=T_SWING)
+    x, u = prob.state(4), prob.control()
+    prob.set_der(x, f(x, u), scale=N / T_SWING if scaled else 1)
+    prob.subject_to(-F_MAX <= (u <= F_MAX), include_last=False)   # include_last would repeat U_{N-1}
+    prob.subject_to(prob.at_t0(x) == ca.DM(X_START))
+    prob.subject_to(prob.at_tf(x) == ca.DM(X_END))
+    J = prob.integral(u ** 2)
+    prob.add_objective(J)
+    prob.set_initial(x, ca.DM(X_START))
+    prob.set_initial(u, 0.0)
+    prob.method(rockit.DirectCollocation(N=N, M=1, degree=DEGREE, scheme="radau"))
+    prob.solver("ipopt", {"print_time": False, "record_time": True, "ipopt.hessian_approximation": "exact",
+                          **{f"ipopt.{k}": v for k, v in IPOPT.items()}})
+    try:
+        sol = prob.solve()
+    except RuntimeError:
+        sol = prob.non_converged_solution
+    obj = float(sol.value(J))
+    t2 = time.perf_counter()
+    stats = sol.stats
+    fun = sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_"))
+    return {"ok": bool(stats.get("success")), "total": t2 - t0, "solve": stats["t_wall_total"], "fun": fun,
+            "iter": int(stats.get("iter_count", 0)), "obj": obj, "status": stats.get("return_status")}
+
+
 # ---- where the time goes -------------------------------------------------------------------------
 
 def profile(cm, f, N) -> None:
@@ -256,11 +305,11 @@ def best(fn, repeats):
     return min(runs, key=lambda r: r["total"])
 
 
-def row(label, N, r, ratio="", verify=None):
+def row(label, N, r, ratio="", verify=None, ratio_rk=""):
     ok = "ok" if r["ok"] else f"FAILED ({r['status']})"
     dev = f"{verify:8.1e}" if verify is not None else f"{'-':>8s}"
     print(f"{label:12s} {N:4d} | {r['total']:7.2f} {r['solve']:7.2f} {r['solve'] - r['fun']:7.2f} {r['fun']:7.2f} | "
-          f"{r['iter']:5d} {r['obj']:18.12g} | {dev} | {ratio:>5s} | {ok}")
+          f"{r['iter']:5d} {r['obj']:18.12g} | {dev} | {ratio:>5s} | {ratio_rk:>8s} | {ok}")
 
 
 def main(argv=None):
@@ -278,6 +327,8 @@ def main(argv=None):
           f"mechnet {getattr(mn, '__version__', '?')}")
     print(f"machine: {_cpu_model()}, {os.cpu_count()} cores, {platform.system()} {platform.release()}")
     print(f"command: python {' '.join(sys.argv)}; mechnet at git {_git_head()}")
+    if rockit is None:
+        print("rockit: not installed (`pip install rockit-meco`, the `bench` extra): its rows are skipped")
     print(f"load average (1, 5, 15 min) at the start: {', '.join(f'{v:.2f}' for v in os.getloadavg())}")
     print(f"cart-pole: M = {M_CART:g} kg, m = {M_TIP:g} kg, L = {L:g} m, g = {G:g}; T = {T_SWING:g} s, "
           f"|u| <= {F_MAX:g} N; min ∫u² dt; Radau degree {DEGREE}, piecewise-constant u; IPOPT {IPOPT}")
@@ -296,7 +347,7 @@ def main(argv=None):
     print(f"collocation: best of {repeats} by total; shooting: one run\n")
 
     head = (f"{'method':12s} {'N':>4s} | {'total':>7s} {'solve':>7s} {'ipopt':>7s} {'fun':>7s} | "
-            f"{'iter':>5s} {'objective':>18s} | {'verify':>8s} | {'ratio':>5s} | status")
+            f"{'iter':>5s} {'objective':>18s} | {'verify':>8s} | {'ratio':>5s} | {'ratio rk':>8s} | status")
     print(head)
     print("-" * len(head))
     failures = []
@@ -304,17 +355,28 @@ def main(argv=None):
         mine = best(lambda: run_mechnet(cm, ocp.Collocation(N=N, degree=DEGREE)), repeats)
         rows_g = best(lambda: run_hand(N, f, False), repeats)
         rows_b = best(lambda: run_hand(N, f, True), repeats)
+        others = [("hand-b", rows_b), ("hand-g", rows_g)]
+        if rockit is not None:
+            others.append(("rockit-s", best(lambda: run_rockit(N, f, True), repeats)))
+            if N in ROCKIT_UNSCALED_NS:
+                others.append(("rockit", run_rockit(N, f, False)))
+        rk = dict(others).get("rockit-s")
         verify = mine["sol"].verify(progress=False)["max_deviation"]
-        row("mechnet coll", N, mine, f"{mine['total'] / rows_b['total']:.2f}", verify)
-        row("hand-b", N, rows_b)
-        row("hand-g", N, rows_g)
-        for label, other in (("hand-b", rows_b), ("hand-g", rows_g)):
+        row("mechnet coll", N, mine, f"{mine['total'] / rows_b['total']:.2f}", verify,
+            f"{mine['total'] / rk['total']:.2f}" if rk else "")
+        for label, other in others:
+            row(label, N, other)
+        for label, other in others:
             rel = abs(mine["obj"] - other["obj"]) / abs(other["obj"])
             if not rel <= OBJ_RTOL or not (mine["ok"] and other["ok"]):
                 failures.append(f"N = {N}: mechnet {mine['obj']:.12g} vs {label} {other['obj']:.12g} "
                                 f"(relative {rel:.1e}; success {mine['ok']}/{other['ok']})")
-    print(f"(solve/ipopt/fun: see the docstring; ratio = mechnet total / hand-b total; verify: "
-          f"sol.verify()['max_deviation'], re-simulation at rtol 1e-10)")
+    print(f"(solve/ipopt/fun: see the docstring; ratio = mechnet total / hand-b total; ratio rk = mechnet "
+          f"total / rockit-s total; verify: sol.verify()['max_deviation'], re-simulation at rtol 1e-10)")
+    if rockit is not None:
+        print(f"(rockit-meco {metadata.version('rockit-meco')}: DirectCollocation(N, M=1, degree={DEGREE}, "
+              f"scheme='radau'); rockit-s: set_der scale 1/h; rockit (unscaled, one run): N = "
+              f"{', '.join(map(str, ROCKIT_UNSCALED_NS))} only)")
     for N in shooting_ns:
         r = run_mechnet(cm, ocp.MultipleShooting(N=N, integrator="cvodes", rtol=1e-8, atol=1e-10))
         row("mechnet ms", N, r, "", r["sol"].verify(progress=False)["max_deviation"])
@@ -323,7 +385,8 @@ def main(argv=None):
         for line in failures:
             print(f"FAIL objective agreement (collocation, rtol {OBJ_RTOL:g}): {line}")
     else:
-        print(f"collocation objectives: mechnet = hand-b = hand-g within {OBJ_RTOL:g} relative at every N: ok")
+        names = "mechnet = hand-b = hand-g" + (" = rockit-s = rockit" if rockit is not None else "")
+        print(f"collocation objectives: {names} within {OBJ_RTOL:g} relative at every N: ok")
     print(f"wall time of this run: {time.perf_counter() - t0:.0f} s; load average at the end: "
           f"{', '.join(f'{v:.2f}' for v in os.getloadavg())}")
     return 1 if failures or deviation >= MODEL_TOL else 0
