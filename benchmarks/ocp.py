@@ -89,6 +89,7 @@ SHOOTING_NS, QUICK_SHOOTING_NS = (50, 100), (50,)
 REPEATS = 3
 DEGREE = 3
 IPOPT = {"print_level": 0, "sb": "yes"}       # mechnet's own defaults for a quiet solve
+EXPAND = True      # nlpsol "expand" (MX graph to SX) as mechnet's Collocation does by default: the same for all
 OBJ_RTOL = 1e-6
 MODEL_TOL = 1e-8                              # |mechnet − hand| of the simulated states
 
@@ -200,8 +201,7 @@ def run_hand(N, f, simple_bounds: bool) -> dict:
     opti.set_initial(U, 0.0)
     opti.minimize(J)
     opti.solver("ipopt", {"print_time": False, "record_time": True, "detect_simple_bounds": simple_bounds,
-                          "ipopt.hessian_approximation": "exact"}, dict(IPOPT))
-    t1 = time.perf_counter()
+                          "expand": EXPAND, "ipopt.hessian_approximation": "exact"}, dict(IPOPT))
     try:
         sol = opti.solve()
         stats, obj = sol.stats(), float(sol.value(J))
@@ -232,6 +232,7 @@ def run_rockit(N, f, scaled: bool) -> dict:
     prob.set_initial(u, 0.0)
     prob.method(rockit.DirectCollocation(N=N, M=1, degree=DEGREE, scheme="radau"))
     prob.solver("ipopt", {"print_time": False, "record_time": True, "ipopt.hessian_approximation": "exact",
+                          "expand": EXPAND,
                           **{f"ipopt.{k}": v for k, v in IPOPT.items()}})
     try:
         sol = prob.solve()
@@ -270,7 +271,7 @@ def profile(cm, f, N) -> None:
     nlp, layout = method.transcribe(prob, None)
     solver = ca.nlpsol("ocp", "ipopt", {"x": ca.vertcat(*nlp.w), "f": layout["objective"], "g": ca.vertcat(*nlp.g)},
                        {"print_time": False, "record_time": True, "ipopt.hessian_approximation": "exact",
-                        **{f"ipopt.{k}": v for k, v in IPOPT.items()}})
+                        "expand": EXPAND, **{f"ipopt.{k}": v for k, v in IPOPT.items()}})
     solver(x0=nlp.w0, lbx=nlp.lbw, ubx=nlp.ubw, lbg=nlp.lbg, ubg=nlp.ubg)
     mine = solver.stats()
     hand = run_hand(N, f, True)
@@ -294,7 +295,7 @@ def profile(cm, f, N) -> None:
     prof.enable()
     mechnet_problem(cm).solve(ocp.Collocation(N=N, degree=DEGREE), ipopt={**IPOPT, "max_iter": 0}, progress=False)
     prof.disable()
-    print(f"\n  prob.solve with max_iter = 0 (build, one evaluation, the Solution), cProfile, top 12 by cumulative:")
+    print("\n  prob.solve with max_iter = 0 (build, one evaluation, the Solution), cProfile, top 12 by cumulative:")
     pstats.Stats(prof).sort_stats("cumulative").print_stats(12)
 
 
@@ -371,8 +372,8 @@ def main(argv=None):
             if not rel <= OBJ_RTOL or not (mine["ok"] and other["ok"]):
                 failures.append(f"N = {N}: mechnet {mine['obj']:.12g} vs {label} {other['obj']:.12g} "
                                 f"(relative {rel:.1e}; success {mine['ok']}/{other['ok']})")
-    print(f"(solve/ipopt/fun: see the docstring; ratio = mechnet total / hand-b total; ratio rk = mechnet "
-          f"total / rockit-s total; verify: sol.verify()['max_deviation'], re-simulation at rtol 1e-10)")
+    print("(solve/ipopt/fun: see the docstring; ratio = mechnet total / hand-b total; ratio rk = mechnet "
+          "total / rockit-s total; verify: sol.verify()['max_deviation'], re-simulation at rtol 1e-10)")
     if rockit is not None:
         print(f"(rockit-meco {metadata.version('rockit-meco')}: DirectCollocation(N, M=1, degree={DEGREE}, "
               f"scheme='radau'); rockit-s: set_der scale 1/h; rockit (unscaled, one run): N = "

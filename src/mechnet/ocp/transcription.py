@@ -63,6 +63,7 @@ class Transcription:
     `hessian`: "exact" or "limited-memory"."""
 
     default_hessian = "exact"
+    expand = False           # the NLP's MX graph expanded to SX (collocation: all of it is SX-expandable)
 
     def __init__(self, N: int, controls: str = "constant", hessian: str | None = None):
         from ..core.arguments import whole_number
@@ -196,7 +197,7 @@ class Transcription:
             nlp, layout = self.transcribe(prob, guess)
             w, g = ca.vertcat(*nlp.w), ca.vertcat(*nlp.g)
             opts = {"ipopt.print_level": 5 if verbose else 0, "ipopt.sb": "yes", "print_time": False,
-                    "ipopt.hessian_approximation": self.hessian}
+                    "ipopt.hessian_approximation": self.hessian, "expand": self.expand}
             opts.update({k if "." in k or k in NLPSOL_OPTIONS else f"ipopt.{k}": v for k, v in ipopt.items()})
             try:
                 max_iter = int(opts.get("ipopt.max_iter", 3000))
