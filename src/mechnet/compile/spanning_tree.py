@@ -302,6 +302,7 @@ class _Tree:
         self.turn = turn = {root: _Turn(np.eye(3), ca.SX(0.0), np.eye(3))}   # node -> its _Turn, or None
         self.step = {root: zero3}             # node -> its position from its parent node, world axes
         self.step_norm2 = {root: 0.0}         # node -> |step|² when a constant, else None
+        self.from_link = {root: None}         # node -> its position from its link's first node (None: it is that)
         for n in self.order[1:]:
             e, forward, p = self.parent[n]
             kp = self.kin[p]
@@ -326,6 +327,7 @@ class _Tree:
                 step = -ca.mtimes(R, r_rel)
                 Ra = R
             self.step[n] = step
+            self.from_link[n] = None if e.dof else (step if self.from_link[p] is None else self.from_link[p] + step)
             # |step|² is |r_rel|² when the step is a rotated constant (a rigid link): a body's inertia
             # about the joint then holds m·L², not m·(L² cos² + L² sin²)
             self.step_norm2[n] = float(ca.sumsqr(ca.DM(r_rel))) if ca.SX(r_rel).is_constant() else None
@@ -400,18 +402,19 @@ class _Tree:
         return self.step_norm2.get(n) if self.parent.get(n, (None, None, None))[2] == a else None
 
     def between(self, n, a) -> ca.SX:
-        """Position of node n from node a (world axes) as the sum of the edge steps between them, not as
-        the difference of their absolute positions: r_b − r_a would keep r_a in both terms, which the
-        expression graph does not cancel ((x − (−0.5 sin φ)) − x in a cart-pole: 45 instructions in its
-        ODE where 30 do, and twice the Hessian work in an optimal control problem). Falls back on the
-        difference when a is not on n's path to the root."""
-        total, k = None, n
-        while k != a:
-            if k == self.order[0]:
-                return self.kin[n].r - self.kin[a].r
-            total = self.step[k] if total is None else total + self.step[k]
-            k = self.parent[k][2]
-        return total if total is not None else ca.densify(ca.SX.zeros(3))
+        """Position of node n from node a (world axes) built from the edges' steps, not as the difference
+        of their absolute positions: r_n − r_a keeps r_a in both terms, which the expression graph does
+        not cancel ((x − (−0.5 sin φ)) − x in a cart-pole's ODE). a is n's link's first node (the sum
+        kept per node in `from_link`, so a long rigid link costs O(length)) or, for n a link's first node,
+        the first node of the link before; anything else falls back on the difference."""
+        first = self.link_nodes[self.link_of[n]][0]
+        if a == first:
+            return self.from_link[n] if self.from_link[n] is not None else ca.densify(ca.SX.zeros(3))
+        if n == first and n != self.order[0]:
+            p = self.parent[n][2]
+            if self.link_nodes[self.link_of[p]][0] == a:
+                return self.step[n] if self.from_link[p] is None else self.from_link[p] + self.step[n]
+        return self.kin[n].r - self.kin[a].r
 
     def offset(self, link):
         """From the parent link's reference point to this link's, and the parent link."""
@@ -435,7 +438,6 @@ class _Tree:
         moving = [self.link_of[n] for n in self.order[1:] if self.link_nodes.get(self.link_of[n], [None])[0] == n]
         M, bias = {}, {}
         for link in moving:
-            ref = self.ref(link)
             Mk, bk = ca.SX.zeros(6, 6), ca.SX.zeros(6)
             for n in self.link_nodes[link]:
                 d = self.between(n, self.link_nodes[link][0])
