@@ -46,9 +46,14 @@ def _lagrange(points, r) -> np.poly1d:
 class Collocation(Transcription):
     """`Collocation(N=50, degree=3, scheme="radau" | "legendre", controls="constant" | "linear")`."""
 
-    # the NLP expanded to one SX graph: a cart-pole's function evaluations 7-10x faster, the whole solve
-    # 2x (N = 50 and 100), the same iterates (ipopt={"expand": False} turns it off)
-    expand = True
+    # the NLP expanded to one SX graph when it stays small (`expand`): a cart-pole's function evaluations
+    # 7-10x faster and its solve 2x; but building the expanded Hessian of a robot arm (1000 ODE
+    # instructions, N = 40) took 3 s more than the whole solve saved, and 3x the memory
+    EXPAND_MAX = 50_000            # collocation points x model instructions
+
+    @property
+    def expand(self) -> bool:
+        return self._size <= self.EXPAND_MAX
 
     def __init__(self, N: int, degree: int = 3, scheme: str = "radau", controls: str = "constant",
                  hessian: str | None = None):
@@ -64,6 +69,7 @@ class Collocation(Transcription):
 
     def transcribe(self, prob, guess):
         dae = prob.dae
+        self._size = self.N * self.degree * dae.n_instructions()
         N, d = self.N, self.degree
         tau, C, D, W = coefficients(d, self.scheme)
         nx_, nz, nu = dae.x.numel(), dae.z.numel(), dae.u.numel()

@@ -63,7 +63,7 @@ class Transcription:
     `hessian`: "exact" or "limited-memory"."""
 
     default_hessian = "exact"
-    expand = False           # the NLP's MX graph expanded to SX (collocation: all of it is SX-expandable)
+    expand = False           # the NLP's MX graph expanded to SX (`Collocation.expand`); read in `solve`
 
     def __init__(self, N: int, controls: str = "constant", hessian: str | None = None):
         from ..core.arguments import whole_number
@@ -192,6 +192,7 @@ class Transcription:
         from .solution import Solution
         from ..core.arguments import mapping
         ipopt = mapping(ipopt, "solve(ipopt=...)")
+        setup = _time.perf_counter()
         with BUILD_LOCK:
             self.prepare(prob)
             nlp, layout = self.transcribe(prob, guess)
@@ -210,6 +211,7 @@ class Transcription:
             read = ca.Function("trajectories", [w], [layout[k] for k in layout["read"]])
             final_time = ca.Function("t_final", [w], [layout["T"]])
         started = _time.perf_counter()
+        setup = started - setup
         try:
             with captured() as messages:
                 out = solver(x0=nlp.w0, lbx=nlp.lbw, ubx=nlp.ubw, lbg=nlp.lbg, ubg=nlp.ubg)
@@ -224,7 +226,8 @@ class Transcription:
         worst = int(np.argmax(violation)) if violation.size and violation.max() > 0 else None
         t_final = float(final_time(w_opt))
         info = {"success": bool(stats.get("success")), "status": stats.get("return_status"),
-                "iterations": int(stats.get("iter_count", 0)), "wall_time": wall,
+                "iterations": int(stats.get("iter_count", 0)), "wall_time": wall, "setup_time": setup,
+                "expanded": bool(opts["expand"]),
                 "function_time": sum(v for k, v in stats.items() if k.startswith("t_wall_nlp_")),
                 "function_times": {k[len("t_wall_"):]: v for k, v in stats.items() if k.startswith("t_wall_nlp_")},
                 "objective": float(out["f"]), "method": type(self).__name__, "N": self.N,
