@@ -422,3 +422,15 @@ def test_a_warm_start_begins_at_the_previous_final_time(min_time_collocation, di
     sol = minimum_time(di).solve(ocp.Collocation(N=40), guess=min_time_collocation)
     assert sol.success and abs(sol.t_final - 2.0) < 1e-6
     assert sol.stats["iterations"] <= min_time_collocation.stats["iterations"]
+
+
+def test_rate_bounds_limit_the_control_slew(di):
+    # minimum time over 1 m with |u| <= 1 is bang-bang (T = 2); with |du/dt| <= 20 N/s between control
+    # nodes the switch takes >= 0.1 s, so T grows, and every step between nodes respects the limit to
+    # IPOPT's tolerance (1e-8 relative)
+    prob = minimum_time(di)
+    prob.rate_bounds("push.f", -20.0, 20.0)
+    sol = prob.solve(ocp.Collocation(N=40))
+    assert sol.success and sol.t_final > 2.0 + 1e-3
+    slew = np.diff(sol.inputs["push.f"].values) / (sol.t_final / 40)
+    assert np.max(np.abs(slew)) <= 20.0 * (1 + 1e-6)
