@@ -67,8 +67,7 @@ import numpy as np
 
 import mechnet as mn
 from mechnet import ocp
-from mechnet.components import multibody as mb
-from mechnet.components import translational as tr
+from mechnet.scene import load_scene
 
 try:
     import rockit
@@ -78,7 +77,9 @@ except ImportError:                           # optional: the `bench` extra inst
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from chain3d import _cpu_model, _git_head  # noqa: E402  (importable: its work runs under __main__ only)
 
-M_CART, M_TIP, L, G = 1.0, 0.3, 0.5, 9.81     # kg, kg, m, m/s²
+CART_POLE = load_scene(Path(__file__).resolve().parents[1] / "examples" / "cart_pole_swing_up.py")
+M_CART, M_TIP, L = (CART_POLE.build.__globals__[k] for k in ("M_CART", "M_TIP", "L"))   # kg, kg, m
+G = 9.81                                      # m/s² (mb.World's default)
 T_SWING, F_MAX = 2.5, 20.0                    # s, N (T = 2 s: 748-775 iterations at N = 200, see docs)
 X_START = (0.0, 0.0, 0.0, 0.0)                # rail.s, rail.v, hinge.phi, hinge.w: hanging at rest
 X_END = (0.0, 0.0, math.pi, 0.0)              # upright at rest, cart back at 0
@@ -97,23 +98,8 @@ MODEL_TOL = 1e-8                              # |mechnet − hand| of the simula
 # ---- the model, twice ---------------------------------------------------------------------------
 
 def build() -> mn.Model:
-    m = mn.Model("cart_pole")
-    world = m.add(mb.World(name="world"))
-    rail = m.add(mb.Prismatic(name="rail", n=[1, 0, 0], use_flange=True, s_start=X_START[0], v_start=X_START[1]))
-    cart = m.add(mb.Particle(name="cart", m=M_CART))
-    hinge = m.add(mb.Revolute(name="hinge", n=[0, 0, 1], phi_start=X_START[2], w_start=X_START[3]))
-    pole = m.add(mb.FixedTranslation(name="pole", r=[0, -L, 0]))
-    tip = m.add(mb.Particle(name="tip", m=M_TIP))
-    ground = m.add(tr.Fixed(name="ground"))
-    push = m.add(tr.Force(name="push"))
-    m.connect(world.frame_b, rail.frame_a)
-    m.connect(rail.frame_b, cart.frame_a)
-    m.connect(rail.frame_b, hinge.frame_a)
-    m.connect(hinge.frame_b, pole.frame_a)
-    m.connect(pole.frame_b, tip.frame_a)
-    m.connect(rail.support, ground.flange)
-    m.connect(rail.axis, push.flange)
-    return m
+    """mechnet's model: the example scene itself (examples/cart_pole_swing_up.py), hanging at rest."""
+    return CART_POLE.model()
 
 
 def hand_ode() -> ca.Function:

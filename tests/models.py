@@ -318,3 +318,15 @@ def stephenson_mm_by_hand(c=5e3, preload=2e-3, g=9.81, crank_angle=1.0):
     V += 0.5 * c * (ca.norm_2(ca.DM(S) - R) - s_unstretched) ** 2
     accel = -(0.5 * ca.jacobian(M, th) * w ** 2 + ca.jacobian(V, th)) / M
     return ca.vertcat(th, w), ca.vertcat(w, accel), ca.Function("E", [th, w], [0.5 * M * w ** 2 + V])
+
+
+def double_integrator(m=1.0, v0=0.0, name="double_integrator") -> mn.Model:
+    """A mass (m may be mn.tunable) pushed by the input force "push.f", at s = 0 with speed v0: the
+    optimal-control tests' plant, s'' = u / m."""
+    from mechnet.components import translational as tr
+
+    model = mn.Model(name)
+    mass = model.add(tr.Mass(name="mass", m=m, s_start=0.0, v_start=v0))
+    push = model.add(tr.Force(name="push"))
+    model.connect(push.flange, mass.flange_a)
+    return model

@@ -118,11 +118,16 @@ def _report(scene, res, png: Optional[Path]) -> None:
         print(f"  max |{name} - reference| = {error:.3e}")
     if png is None:
         return
-    import matplotlib.pyplot as plt
-
     names = list(scene.plot) or list(res.state_names[:6])
     fig = res.plot(names, title=scene.title,
                    reference={name: values for name, (values, _) in reference.items() if name in names})
+    _save(fig, png)
+
+
+def _save(fig, png: Path) -> None:
+    """Write a figure and close it; a path that cannot be written is a MechnetError naming it."""
+    import matplotlib.pyplot as plt
+
     try:
         fig.savefig(png)
     except OSError as exc:
@@ -134,8 +139,6 @@ def _report(scene, res, png: Optional[Path]) -> None:
 
 def _optimal_control(scene, cm, png: Path) -> None:
     """Solve the scene's optimal control problem, replay its controls, plot the solution."""
-    import matplotlib.pyplot as plt
-
     t0 = time.perf_counter()
     sol = scene.solve(cm)
     stats = sol.stats
@@ -146,13 +149,7 @@ def _optimal_control(scene, cm, png: Path) -> None:
     check = sol.verify()
     print(f"  replayed by cm.simulate: max state deviation {check['max_deviation']:.3e} ({check['worst']})")
     fig = sol.plot(title=f"{scene.title} — optimal control")
-    try:
-        fig.savefig(png)
-    except OSError as exc:
-        raise MechnetError(f"cannot write the plot {png}: {exc.strerror or exc}") from exc
-    finally:
-        plt.close(fig)
-    print(f"wrote {png}")
+    _save(fig, png)
     if not sol.success:
         worst = stats["worst_constraint"]
         raise MechnetError(f"the optimal control problem failed: {sol!r}" +

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 import mechnet as mn
+import models
 from mechnet import ocp
 from mechnet.components import rotational as rot
-from mechnet.components import translational as tr
 from mechnet.components.signals import Table
 from mechnet.scene import load_scene
 from models import four_bar
@@ -29,11 +29,7 @@ SHOOTING_TIGHT = {"rtol": 1e-10, "atol": 1e-10}
 # ---- models ------------------------------------------------------------------------------------
 
 def double_integrator():
-    m = mn.Model("double_integrator")
-    mass = m.add(tr.Mass(name="mass", m=1.0, s_start=0.0, v_start=0.0))
-    push = m.add(tr.Force(name="push"))
-    m.connect(push.flange, mass.flange_a)
-    return m.compile()
+    return models.double_integrator().compile()
 
 
 def cart_pole():
@@ -344,11 +340,7 @@ def test_shooting_enforces_path_constraints_between_nodes_on_request():
     # the unconstrained-between-nodes solution peaks at 0.104 m inside an interval (nodes 0.1 exactly);
     # with 8 constraint points per interval the peak, re-simulated on 1001 points (rtol 1e-10), stays
     # within 1e-3 of the bound (the rest is between the points)
-    m = mn.Model("di_bounce")
-    mass = m.add(tr.Mass(name="mass", m=1.0, s_start=0.0, v_start=1.0))
-    push = m.add(tr.Force(name="push"))
-    m.connect(push.flange, mass.flange_a)
-    cm = m.compile()
+    cm = models.double_integrator(v0=1.0).compile()
     prob = ocp.Problem(cm, t_final=1.0)
     prob.subject_to(prob.at_end(prob.var("mass.s")) == 0)
     prob.subject_to(prob.at_end(prob.var("mass.v")) == 0)
@@ -402,11 +394,7 @@ def test_a_free_parameter_is_optimised_in_the_objective_and_dynamics():
     # the mass m ∈ [0.5, 2] is free; J(m) = ∫u² + 10·(m − 1.2)² with ∫u² = 12.03·m² for the transfer
     # (N = 20, constant controls): dJ/dm = 0 at m = 24/(2·12.0301 + 20) = 0.5447; both methods within
     # 1e-4, and verify() replays with the optimised mass (1e-6)
-    m = mn.Model("di_mass")
-    mass = m.add(tr.Mass(name="mass", m=mn.tunable(1.0), s_start=0.0, v_start=0.0))
-    push = m.add(tr.Force(name="push"))
-    m.connect(push.flange, mass.flange_a)
-    prob = min_energy(m.compile())
+    prob = min_energy(models.double_integrator(m=mn.tunable(1.0)).compile())
     prob.free_parameter("mass.m", 0.5, 2.0)
     prob.minimize(prob.integral(prob.var("push.f") ** 2) + 10 * (prob.var("mass.m") - 1.2) ** 2)
     expected = 24 / (2 * 12 * 400 / 399 + 20)

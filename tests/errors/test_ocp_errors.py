@@ -9,15 +9,12 @@ import pytest
 import mechnet as mn
 from mechnet import ocp
 from mechnet.components import translational as tr
+from models import double_integrator
 
 
 @pytest.fixture(scope="module")
 def cm():
-    m = mn.Model("double_integrator")
-    mass = m.add(tr.Mass(name="mass", m=1.0, s_start=0.0, v_start=0.0))
-    push = m.add(tr.Force(name="push"))
-    m.connect(push.flange, mass.flange_a)
-    return m.compile()
+    return double_integrator().compile()
 
 
 @pytest.fixture
@@ -205,10 +202,6 @@ def test_a_nan_in_a_constraint_is_refused(prob):
 
 
 def test_a_fixed_parameter_outside_its_bounds_is_refused():
-    m = mn.Model("di_mass")
-    mass = m.add(tr.Mass(name="mass", m=mn.tunable(1.0), s_start=0.0, v_start=0.0))
-    push = m.add(tr.Force(name="push"))
-    m.connect(push.flange, mass.flange_a)
-    prob = ocp.Problem(m.compile(), t_final=1.0)
+    prob = ocp.Problem(double_integrator(m=mn.tunable(1.0)).compile(), t_final=1.0)
     with pytest.raises(ocp.OcpError, match="free it with prob.free_parameter"):
         prob.bounds("mass.m", 2.0, 3.0)

@@ -15,7 +15,7 @@ import casadi as ca
 import numpy as np
 
 from .problem import OcpError
-from .transcription import Nlp, Transcription, final_time_guess, guess_trajectory
+from .transcription import Transcription
 
 
 def coefficients(degree: int, scheme: str):
@@ -72,23 +72,12 @@ class Collocation(Transcription):
         self._size = self.N * self.degree * dae.n_instructions()
         N, d = self.N, self.degree
         tau, C, D, W = coefficients(d, self.scheme)
-        nx_, nz, nu = dae.x.numel(), dae.z.numel(), dae.u.numel()
-        xn = np.array(dae.x_nominal, dtype=float) if nx_ else np.zeros(0)
-        zn = np.array(dae.z_nominal, dtype=float) if nz else np.zeros(0)
-        nlp = Nlp()
-        T = self.final_time(prob, nlp, guess)
-        p = self.parameters(prob, nlp)
-        d_values = ca.DM(list(dae.d_value)) if dae.d.numel() else ca.DM(0, 1)
-        h = T / N
-        x0, z0, u0 = self.start_point(prob)
-        T_guess = final_time_guess(prob, guess)
-        grid = np.array([(k + tj) * T_guess / N for k in range(N) for tj in tau] + [T_guess])
-        Xg, Zg, Ug = guess_trajectory(prob, guess, grid, x0, z0, u0)
+        nx_, nz = dae.x.numel(), dae.z.numel()
+        shares = [(k + tj) / N for k in range(N) for tj in tau] + [1.0]
+        setup = self.start(prob, guess, shares, [min(k * (d + 1), len(shares) - 1) for k in range(N + 1)])
+        nlp, T, p, d_values, h, U = setup.nlp, setup.T, setup.p, setup.d, setup.h, setup.U
+        Xg, Zg, xn, zn = setup.X0, setup.Z0, setup.xn, setup.zn
         xlo, xhi = self.state_bounds(prob)
-        ulo, uhi = self.input_bounds(prob)
-        n_nodes = N + 1 if self.controls == "linear" else N
-        U = [nlp.variable(f"U_{k}", nu, Ug[min(k * (d + 1), len(grid) - 1)], ulo, uhi, 1.0) for k in range(n_nodes)]
-        self.control_rates(prob, nlp, U, h)
 
         def control(k, s):
             return U[k] if self.controls == "constant" else U[k] + s * (U[k + 1] - U[k])

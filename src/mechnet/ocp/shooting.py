@@ -14,7 +14,7 @@ import casadi as ca
 import numpy as np
 
 from .problem import OcpError
-from .transcription import Nlp, Transcription, final_time_guess, guess_trajectory
+from .transcription import Transcription
 
 INTEGRATORS = ("cvodes", "idas", "rk")
 
@@ -77,23 +77,13 @@ class MultipleShooting(Transcription):
     def transcribe(self, prob, guess):
         dae = prob.dae
         N = self.N
-        nx_, nz, nu = dae.x.numel(), dae.z.numel(), dae.u.numel()
-        xn = np.array(dae.x_nominal, dtype=float) if nx_ else np.zeros(0)
-        zn = np.array(dae.z_nominal, dtype=float) if nz else np.zeros(0)
+        nx_, nz = dae.x.numel(), dae.z.numel()
         F = self._interval(prob)
-        nlp = Nlp()
-        T = self.final_time(prob, nlp, guess)
-        p = self.parameters(prob, nlp)
-        d_values = ca.DM(list(dae.d_value)) if dae.d.numel() else ca.DM(0, 1)
-        h = T / N
-        x0, z0, u0 = self.start_point(prob)
-        grid = np.linspace(0.0, final_time_guess(prob, guess), N + 1)
-        Xg, Zg, Ug = guess_trajectory(prob, guess, grid, x0, z0, u0)
+        setup = self.start(prob, guess, np.linspace(0.0, 1.0, N + 1), list(range(N + 1)))
+        nlp, T, p, d_values, h, U = setup.nlp, setup.T, setup.p, setup.d, setup.h, setup.U
+        Xg, Zg, xn, zn = setup.X0, setup.Z0, setup.xn, setup.zn
         xlo, xhi = self.state_bounds(prob)
-        ulo, uhi = self.input_bounds(prob)
-        n_nodes = N + 1 if self.controls == "linear" else N
-        U = [nlp.variable(f"U_{k}", nu, Ug[k], ulo, uhi, 1.0) for k in range(n_nodes)]
-        self.control_rates(prob, nlp, U, h)
+        n_nodes = len(U)
         X = [nlp.variable(f"X_{k}", nx_, Xg[k], xlo, xhi, xn) for k in range(N + 1)]
         Z = [nlp.variable(f"Z_{k}", nz, Zg[k], -np.inf, np.inf, zn) for k in range(N + 1)]
 

@@ -58,6 +58,24 @@ class Nlp:
         self.labels.extend((w, t) for w in whats)
 
 
+@dataclass
+class Layout:
+    """What both transcriptions start from (`Transcription.start`): the NLP with the final time, the
+    parameters and the controls declared, the guess on the transcription's points, and the scales."""
+
+    nlp: Nlp
+    T: object                   # final time (MX: a number or a decision variable)
+    p: object                   # parameter vector (MX)
+    d: object                   # discrete values (DM)
+    h: object                   # T / N
+    U: list                     # controls at their nodes (MX)
+    X0: np.ndarray              # guess of states, algebraics and inputs at the points
+    Z0: np.ndarray
+    U0: np.ndarray
+    xn: np.ndarray
+    zn: np.ndarray
+
+
 class Transcription:
     """Base of Collocation and MultipleShooting. `controls`: "constant" or "linear" between nodes;
     `hessian`: "exact" or "limited-memory"."""
@@ -146,6 +164,24 @@ class Transcription:
             values[k] = nlp.variable(f"p_{name}", 1, min(max(prob.p_value[k], lo), hi), lo, hi,
                                      max(abs(prob.p_value[k]), 1.0))
         return ca.vertcat(*values) if values else ca.MX(0, 1)
+
+    def start(self, prob: Problem, guess, shares, node_points) -> Layout:
+        """The NLP both transcriptions build on: final time, parameters, and the controls (bounded, rate
+        bounded) with their guess; `shares`: the transcription's points as shares of the horizon, where
+        the guess is laid out; `node_points[k]`: the point of control node k."""
+        dae = prob.dae
+        nlp = Nlp()
+        T = self.final_time(prob, nlp, guess)
+        p = self.parameters(prob, nlp)
+        x0, z0, u0 = self.start_point(prob)
+        X0, Z0, U0 = guess_trajectory(prob, guess, np.asarray(shares) * final_time_guess(prob, guess), x0, z0, u0)
+        ulo, uhi = self.input_bounds(prob)
+        n_nodes = self.N + 1 if self.controls == "linear" else self.N
+        U = [nlp.variable(f"U_{k}", dae.u.numel(), U0[node_points[k]], ulo, uhi, 1.0) for k in range(n_nodes)]
+        h = T / self.N
+        self.control_rates(prob, nlp, U, h)
+        return Layout(nlp, T, p, ca.DM(list(dae.d_value)) if dae.d.numel() else ca.DM(0, 1), h, U, X0, Z0, U0,
+                      np.array(dae.x_nominal, dtype=float), np.array(dae.z_nominal, dtype=float))
 
     def final_time(self, prob: Problem, nlp: Nlp, guess=None):
         lo, hi = prob.t_bounds
