@@ -89,10 +89,15 @@ class CompiledModel:
         return self.dae.observed_names
 
     def functions(self) -> dict:
-        """The named CasADi functions of the compiled model."""
-        d = self.dae
-        return {"ode": d.ode, "alg": d.alg, "observed": d.observed, "zero": d.zero,
-                "invariants": d.invariants}
+        """The documented contract every export is built from (`mechnet.export.contract`): ode, alg,
+        observed, invariants, zero, transition, init, solve_alg, Jacobians, forward, metadata."""
+        from ..export import functions
+        return functions(self)
+
+    def export(self, path, kind: str = "casadi", *, fmi: int = 2, overwrite: bool = False):
+        """Write the model as CasADi files, generated C or an FMU (`mechnet.export.export`)."""
+        from ..export import export
+        return export(self, path, kind, fmi=fmi, overwrite=overwrite)
 
     def simulate(self, t_end: float, **kwargs):
         """Integrate from t = 0 (or `t_start`) to `t_end`; see `mechnet.simulate.simulate`."""

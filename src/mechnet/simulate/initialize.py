@@ -111,13 +111,16 @@ def _build_start_terms(dae, names: tuple):
     return exprs, pattern, linear, at_zero
 
 
-def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess: dict,
-               steady_state: bool = False) -> InitialPoint:
+def start_conditions(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, steady_state: bool = False):
+    """The fixed start values that become equations of the initial system, at (t0, u, p).
+
+    Those that are constants of the model are checked and dropped, equal ones through an alias
+    kept once. Returns (names, conditions, implied): `names` the start names in order, `conditions`
+    (name, position among the start expressions or None for der(x) = 0, value), `implied` {position
+    in (x, z): (name, value)} for starts that fix one variable linearly (the best Newton start)."""
     nx_, nz = dae.x.numel(), dae.z.numel()
     args = (t0, u, p)
-
-    # 1. fixed values: drop those that are constants of the model (checking them), dedupe equal ones
-    conditions = []            # (name, position among the start expressions or None for der(x), value)
+    conditions = []
     implied: dict[int, tuple[str, float]] = {}   # state/algebraic -> (name, value) for x_j = const conditions
     names = tuple(start)
     _, pattern, linear, at_zero = _start_terms(dae, names)
@@ -149,6 +152,14 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
         conditions.append((name, k, float(value)))
     if steady_state:                  # der(x) = 0 for every state, in place of start values for them
         conditions.extend((f"der({n})", None, 0.0) for n in dae.x_names)
+    return names, conditions, implied
+
+
+def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess: dict,
+               steady_state: bool = False) -> InitialPoint:
+    nx_, nz = dae.x.numel(), dae.z.numel()
+    args = (t0, u, p)
+    names, conditions, implied = start_conditions(dae, t0, u, p, start, steady_state)
     if nx_ + nz == 0:
         return InitialPoint(np.zeros(0), np.zeros(0), [c[0] for c in conditions], [], 0.0)
     # 2. structure (checked once per model, start names and kept conditions)
@@ -185,6 +196,13 @@ def _initial_system(dae, names: tuple, kept: tuple, conditions: list):
 
 
 def _build_initial_system(dae, names: tuple, kept: tuple, conditions: list):
+    w, args, res_expr = initial_equations(dae, names, kept, conditions)
+    return _residual_pair("init_residual", w, args, res_expr)
+
+
+def initial_equations(dae, names: tuple, kept: tuple, conditions: list):
+    """(w, [t, u, p, fixed], residual): the initial system in the unknowns w = (x, z), checked as
+    `_initial_system` says; the exported `init` solves the same system (`export/contract.py`)."""
     nx_, nz = dae.x.numel(), dae.z.numel()
     exprs = _start_terms(dae, names)[0]
     w = ca.vertcat(dae.x, dae.z)
@@ -208,7 +226,7 @@ def _build_initial_system(dae, names: tuple, kept: tuple, conditions: list):
         _too_few(missing, _underdetermined(rows_pattern, row_of_w), nx_, list(dae.x_names) + list(dae.z_names))
     fixed = ca.SX.sym("fixed", len(rows))
     res_expr = ca.vertcat(ca.vertcat(*rows) - fixed, alg) if rows_expr else ca.SX(0, 1)
-    return _residual_pair("init_residual", w, [dae.t, dae.u, dae.p, fixed], res_expr)
+    return w, [dae.t, dae.u, dae.p, fixed], res_expr
 
 
 def _symbolic_observed(dae):

@@ -1,0 +1,129 @@
+"""kind="fmu": a Model Exchange FMU (FMI 2.0 or 3.0) for Linux x86_64, sources inside.
+
+CasADi's `DaeBuilder.export_fmu` was evaluated first (issue 19 note): it writes
+FMI 3.0 only, never solves algebraic equations, writes units without their
+definitions and variable names outside FMI's structured convention. So the FMI
+wrapper is mechnet's own (`mechnet_fmu.c`, one file for both versions) around
+CasADi's generated C of the contract; this module writes the model's tables
+(`model_data.h`), `modelDescription.xml` (`model_description.py`) and the archive.
+
+Variables: every observed name (value references 1..n in `observed` order),
+`der(x)` for each state that has no such name already, and (FMI 3.0) one
+variable per event indicator; reference 0 is time. Modes `d` are discrete Real
+(Float64) variables with a start value, changed only by transitions.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+import tempfile
+import zipfile
+from importlib import resources
+from pathlib import Path
+
+from .contract import ExportError
+from .files import _record, compile_shared, generate_c
+from .model_description import fmi_variables, model_description
+
+WRAPPER = "mechnet_fmu.c"
+PLATFORM = {2: "linux64", 3: "x86_64-linux"}
+
+
+def write_fmu(fns: dict, path: Path, fmi: int) -> Path:
+    if fmi not in (2, 3):
+        raise ExportError(f"export(fmi={fmi!r}): FMI version must be 2 or 3")
+    if path.suffix != ".fmu":
+        raise ExportError(f"export(kind='fmu'): the path {path} must end in .fmu")
+    meta = _record(fns, "fmu", {})
+    ident = meta["c_names"][meta["name"]]
+    meta["fmi"] = fmi
+    meta["guid"] = "{" + _guid(meta) + "}"
+    variables = fmi_variables(meta, fmi)
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        sources = root / "sources"
+        sources.mkdir()
+        generate_c(fns, sources, ident)
+        (sources / "model_data.h").write_text(model_data(meta, variables, ident, len(fns["transition"])))
+        shutil.copy(resources.files(__package__) / WRAPPER, sources / WRAPPER)
+        (root / "modelDescription.xml").write_text(model_description(meta, variables, ident, fmi,
+                                                                     [f"{ident}.c", WRAPPER]))
+        extra = root / "extra" / "org.mechnet"
+        extra.mkdir(parents=True)
+        (extra / "model.json").write_text(json.dumps({k: v for k, v in meta.items() if k != "files"}, indent=1))
+        if fmi == 3:
+            (sources / "buildDescription.xml").write_text(_build_description(ident))
+        binaries = root / "binaries" / PLATFORM[fmi]
+        binaries.mkdir(parents=True)
+        compile_shared([sources / WRAPPER, sources / f"{ident}.c"], binaries / f"{ident}.so", [sources],
+                       defines={"FMI_VERSION": str(fmi)})
+        with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
+            for file in sorted(root.rglob("*")):
+                if file.is_file():
+                    archive.write(file, file.relative_to(root).as_posix())
+    return path
+
+
+def _guid(meta: dict) -> str:
+    digest = hashlib.sha256(json.dumps({k: v for k, v in meta.items() if k != "guid"}, sort_keys=True)
+                            .encode()).hexdigest()
+    return f"{digest[:8]}-{digest[8:12]}-{digest[12:16]}-{digest[16:20]}-{digest[20:32]}"
+
+
+def _c_array(ctype: str, name: str, values) -> str:
+    values = list(values)
+    body = ", ".join(repr(float(v)) if ctype == "double" else str(v) for v in values) or "0"
+    return f"static const {ctype} {name}[{max(len(values), 1)}] = {{{body}}};\n"
+
+
+def _c_string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ") + '"'
+
+
+def model_data(meta: dict, variables: list, ident: str, n_transitions: int) -> str:
+    """model_data.h: sizes, defaults and the value-reference tables the wrapper reads."""
+    n_var = len(variables)
+    kind, index, setter, set_index, known, known_index = ([0] * (n_var + 1) for _ in range(6))
+    for v in variables:
+        r = v["vr"]
+        kind[r], index[r] = v["get"]
+        setter[r], set_index[r] = v.get("set", (0, 0))
+        known[r], known_index[r] = v.get("known", (0, 0))
+    sizes = {"NX": len(meta["x"]), "NZ": len(meta["z"]), "NU": len(meta["u"]), "NP": len(meta["p"]),
+             "ND": len(meta["d"]), "NY": len(meta["observed"]), "NS": len(meta["starts"]), "NG": len(meta["zero"]),
+             "NT": n_transitions, "NTE": len(meta["time_events"]), "NVAR": n_var}
+    guesses = meta["guesses"]
+    lines = [f"/* {meta['name']}: the tables of mechnet_fmu.c, written by mechnet.export.fmu */",
+             f'#include "{ident}.h"',
+             f"#define MN_PREFIXED(name) {ident}_##name",
+             f"#define MN_GUID {_c_string(meta['guid'])}",
+             f"#define MN_STATES {_c_string(', '.join(v['name'] for v in meta['x']))}",
+             *[f"#define MN_{k} {v}" for k, v in sizes.items()], ""]
+    out = "\n".join(lines)
+    out += _c_array("double", "mn_u_default", (v["default"] for v in meta["u"]))
+    out += _c_array("double", "mn_p_default", (v["value"] for v in meta["p"]))
+    out += _c_array("double", "mn_d_default", (v["start"] for v in meta["d"]))
+    out += _c_array("double", "mn_s_default", (s["value"] for s in meta["starts"]))
+    out += _c_array("double", "mn_guess", (guesses.get(v["name"], 0.0) for v in meta["x"] + meta["z"]))
+    out += _c_array("double", "mn_x_nominal", (v["nominal"] for v in meta["x"]))
+    out += _c_array("double", "mn_time_events", sorted({t for t, _ in meta["time_events"]}))
+    out += _c_array("int", "mn_zero_direction", (e["direction"] for e in meta["zero"]))
+    out += (f"static const char *const mn_zero_labels[{max(len(meta['zero']), 1)}] = "
+            f"{{{', '.join(_c_string(e['label']) for e in meta['zero']) or '0'}}};\n")
+    for name, values in (("kind", kind), ("index", index), ("set", setter), ("set_index", set_index),
+                         ("known", known), ("known_index", known_index)):
+        out += _c_array("int", f"mn_vr_{name}", values)
+    # the transition functions, declared by the generated header: a table the wrapper walks
+    entries = ", ".join(f"{{{ident}_transition_{k}, {ident}_transition_{k}_work, {ident}_transition_{k}_checkout, "
+                        f"{ident}_transition_{k}_release}}" for k in range(n_transitions))
+    out += f"#define MN_TRANSITIONS {{{entries or '{0, 0, 0, 0}'}}}\n"
+    return out
+
+
+def _build_description(ident: str) -> str:
+    return (f'<?xml version="1.0" encoding="UTF-8"?>\n<fmiBuildDescription fmiVersion="3.0">\n'
+            f'  <BuildConfiguration modelIdentifier="{ident}">\n'
+            f'    <SourceFileSet>\n      <SourceFile name="{WRAPPER}"/>\n      <SourceFile name="{ident}.c"/>\n'
+            f'      <PreprocessorDefinition name="FMI_VERSION" value="3"/>\n    </SourceFileSet>\n'
+            f'  </BuildConfiguration>\n</fmiBuildDescription>\n')

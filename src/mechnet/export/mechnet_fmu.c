@@ -1,0 +1,663 @@
+/* mechnet's FMI wrapper: Model Exchange for FMI 2.0 (FMI_VERSION 2) and 3.0 (FMI_VERSION 3).
+ *
+ * Written for mechnet from the FMI standard's function definitions. It calls the
+ * functions CasADi generated from the compiled model's contract (model.c, see
+ * mechnet.export.contract) through the tables in model_data.h:
+ *   init       consistent start from the start values (a damped Newton, generated)
+ *   solve_alg  the loop equations alg = 0 for z, warm-started from the last accepted z
+ *   ode, observed, zero, transition_k, forward (directional derivatives), alg_jac_z
+ * Nothing here depends on the model: model_data.h says what the value references are.
+ */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <stdint.h>
+#include <stdbool.h>
+#include "model_data.h"
+
+#define EXPORT __attribute__((visibility("default")))
+
+typedef int (*mn_eval_t)(const casadi_real**, casadi_real**, casadi_int*, casadi_real*, int);
+typedef int (*mn_work_t)(casadi_int*, casadi_int*, casadi_int*, casadi_int*);
+typedef int (*mn_checkout_t)(void);
+typedef void (*mn_release_t)(int);
+typedef struct { mn_eval_t eval; mn_work_t work; mn_checkout_t checkout; mn_release_t release; } mn_function;
+
+enum { ST_OK = 0, ST_WARNING = 1, ST_DISCARD = 2, ST_ERROR = 3, ST_FATAL = 4 };
+enum { MODE_INSTANTIATED, MODE_INIT, MODE_EVENT, MODE_CONTINUOUS, MODE_TERMINATED };
+
+#define TABLE(name) { MN_PREFIXED(name), MN_PREFIXED(name##_work), MN_PREFIXED(name##_checkout), MN_PREFIXED(name##_release) }
+enum { F_INIT, F_SOLVE_ALG, F_ODE, F_OBSERVED, F_ZERO, F_FORWARD, F_ALG_JAC_Z, F_COUNT };
+static const mn_function mn_functions[F_COUNT] = {
+    TABLE(init), TABLE(solve_alg), TABLE(ode), TABLE(observed), TABLE(zero), TABLE(forward), TABLE(alg_jac_z)};
+static const mn_function mn_transitions[MN_NT + 1] = MN_TRANSITIONS;
+
+typedef struct {
+    char *name;
+    void *environment;
+    void *logger;                   /* fmi2CallbackLogger or fmi3LogMessageCallback */
+    int logging;
+    int mode;
+    double t;
+    double x[MN_NX + 1], xdot[MN_NX + 1], z[MN_NZ + 1], z_accepted[MN_NZ + 1];
+    double u[MN_NU + 1], p[MN_NP + 1], d[MN_ND + 1], s[MN_NS + 1];
+    double y[MN_NY + 1], g[MN_NG + 1], armed[MN_NG + 1];
+    int need_z, need_xdot, need_y, need_g, need_init;
+    int branch_sign;                /* sign of det(d alg / d z) on the assembly branch of the start */
+    int mem[F_COUNT + MN_NT + 1];
+    const casadi_real **arg;
+    casadi_real **res;
+    casadi_int *iw;
+    casadi_real *w;
+    double jz[MN_NZ * MN_NZ + 1];
+} Instance;
+
+static void logf_(Instance *m, int status, const char *category, const char *fmt, ...);
+
+static int mn_call(Instance *m, mn_eval_t eval, int mem, const double **in, int n_in, double **out, int n_out) {
+    int i;
+    for (i = 0; i < n_in; i++) m->arg[i] = in[i];
+    for (i = 0; i < n_out; i++) m->res[i] = out[i];
+    return eval(m->arg, m->res, m->iw, m->w, mem);
+}
+
+static int call(Instance *m, int f, const double **in, int n_in, double **out, int n_out) {
+    return mn_call(m, mn_functions[f].eval, m->mem[f], in, n_in, out, n_out);
+}
+
+static double inf_norm(const double *v, int n) {
+    double a = 0;
+    int i;
+    for (i = 0; i < n; i++) a = fabs(v[i]) > a ? fabs(v[i]) : a;
+    return a;
+}
+
+/* the sign of det(J) (n x n, column-major, overwritten) by LU with partial pivoting; 0 if singular */
+static int det_sign(double *J, int n) {
+    int sign = 1, i, j, k;
+    for (k = 0; k < n; k++) {
+        int piv = k;
+        for (i = k + 1; i < n; i++) if (fabs(J[i + k * n]) > fabs(J[piv + k * n])) piv = i;
+        if (J[piv + k * n] == 0.0) return 0;
+        if (piv != k) {
+            for (j = 0; j < n; j++) { double tmp = J[k + j * n]; J[k + j * n] = J[piv + j * n]; J[piv + j * n] = tmp; }
+            sign = -sign;
+        }
+        if (J[k + k * n] < 0) sign = -sign;
+        for (i = k + 1; i < n; i++) {
+            double f = J[i + k * n] / J[k + k * n];
+            for (j = k + 1; j < n; j++) J[i + j * n] -= f * J[k + j * n];
+        }
+    }
+    return sign;
+}
+
+static int branch_of(Instance *m) {
+    const double *in[6] = {&m->t, m->x, m->z, m->u, m->p, m->d};
+    double *out[1] = {m->jz};
+    if (MN_NZ == 0) return 1;
+    call(m, F_ALG_JAC_Z, in, 6, out, 1);
+    return det_sign(m->jz, MN_NZ);
+}
+
+/* z from the loop equations at (t, x), warm-started from the last accepted z */
+static int ensure_z(Instance *m) {
+    double norm;
+    int sign;
+    if (!m->need_z) return ST_OK;
+    if (MN_NZ > 0) {
+        const double *in[6] = {&m->t, m->x, m->z_accepted, m->u, m->p, m->d};
+        double *out[2] = {m->z, &norm};
+        call(m, F_SOLVE_ALG, in, 6, out, 2);
+        if (!(norm <= 1e-8 * (1.0 + inf_norm(m->z, MN_NZ)))) {
+            logf_(m, ST_ERROR, "logStatusError", "t = %.17g: the loop equations have no solution near the last "
+                  "accepted point (residual %.3g after the damped Newton); the mechanism cannot be assembled there",
+                  m->t, norm);
+            return ST_ERROR;
+        }
+        sign = branch_of(m);
+        if (sign != m->branch_sign) {
+            logf_(m, ST_ERROR, "logStatusError", "t = %.17g: the solution of the loop equations changed assembly "
+                  "branch (det d alg/d z changed sign from %d to %d): the exported choice of states %s cannot "
+                  "continue here; mechnet's simulator re-selects states at such points, an FMU does not",
+                  m->t, m->branch_sign, sign, MN_STATES);
+            return ST_ERROR;
+        }
+    }
+    m->need_z = 0;
+    return ST_OK;
+}
+
+static int ensure_init(Instance *m);
+
+static int ensure(Instance *m, int *need, int f, double *target) {
+    int st;
+    const double *in[6] = {&m->t, m->x, m->z, m->u, m->p, m->d};
+    double *out[1] = {target};
+    if ((st = ensure_init(m)) != ST_OK) return st;
+    if (!*need) return ST_OK;
+    if ((st = ensure_z(m)) != ST_OK) return st;
+    call(m, f, in, 6, out, 1);
+    *need = 0;
+    return ST_OK;
+}
+
+static void changed(Instance *m) { m->need_z = m->need_xdot = m->need_y = m->need_g = 1; }
+
+static int initialize(Instance *m) {
+    double w0[MN_NX + MN_NZ + 1], norm;
+    const double *in[5] = {&m->t, m->u, m->p, m->s, w0};
+    double *out[3] = {m->x, m->z, &norm};
+    int i;
+    for (i = 0; i < MN_NX + MN_NZ; i++) w0[i] = mn_guess[i];
+    call(m, F_INIT, in, 5, out, 3);
+    if (!(norm <= 1e-8 * (1.0 + fmax(inf_norm(m->x, MN_NX), inf_norm(m->z, MN_NZ))))) {
+        logf_(m, ST_ERROR, "logStatusError", "consistent initialisation failed: residual %.3g after the damped "
+              "Newton from the start values; check the start values and parameters", norm);
+        return ST_ERROR;
+    }
+    for (i = 0; i < MN_NZ; i++) m->z_accepted[i] = m->z[i];
+    m->branch_sign = branch_of(m);
+    m->need_init = 0;
+    m->need_z = 0;
+    m->need_xdot = m->need_y = m->need_g = 1;
+    return ST_OK;
+}
+
+static int ensure_init(Instance *m) {
+    if (m->need_init && (m->mode == MODE_INIT || m->mode == MODE_INSTANTIATED)) return initialize(m);
+    return ST_OK;
+}
+
+static void arm(Instance *m) {
+    int k;
+    for (k = 0; k < MN_NG; k++) m->armed[k] = m->g[k] > 0 ? 1.0 : (m->g[k] < 0 ? -1.0 : m->armed[k]);
+}
+
+static void accept(Instance *m) {
+    int k;
+    for (k = 0; k < MN_NZ; k++) m->z_accepted[k] = m->z[k];
+}
+
+/* the discrete-state update: every condition that crossed in its direction fires, in index order */
+static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
+    int k, st, fired = 0;
+    *values_changed = 0;
+    *needs_more = 0;
+    if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
+    for (k = 0; k < MN_NG; k++) {
+        int falling = m->armed[k] > 0 && m->g[k] <= 0, rising = m->armed[k] < 0 && m->g[k] >= 0;
+        if ((falling && mn_zero_direction[k] <= 0) || (rising && mn_zero_direction[k] >= 0)) {
+            double x_plus[MN_NX + 1], d_plus[MN_ND + 1];
+            const double *in[6] = {&m->t, m->x, m->z, m->u, m->p, m->d};
+            double *out[2] = {x_plus, d_plus};
+            mn_call(m, mn_transitions[k].eval, m->mem[F_COUNT + k], in, 6, out, 2);
+            memcpy(m->x, x_plus, sizeof(double) * MN_NX);
+            memcpy(m->d, d_plus, sizeof(double) * MN_ND);
+            fired++;
+            if (m->logging) logf_(m, ST_OK, "logEvents", "t = %.17g: %s", m->t, mn_zero_labels[k]);
+        }
+    }
+    if (fired) {
+        changed(m);
+        *values_changed = 1;
+        *needs_more = 1;                        /* another round: a reset may make another condition cross */
+        if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
+        accept(m);
+    }
+    arm(m);
+    return ST_OK;
+}
+
+static int next_time_event(Instance *m, double *t_next) {
+    int k;
+    for (k = 0; k < MN_NTE; k++) {
+        if (mn_time_events[k] > m->t * (1 + 1e-14) + 1e-14) { *t_next = mn_time_events[k]; return 1; }
+    }
+    return 0;
+}
+
+static Instance *create(const char *name, int logging) {
+    Instance *m = (Instance *)calloc(1, sizeof(Instance));
+    casadi_int sz_arg = 0, sz_res = 0, sz_iw = 0, sz_w = 0;
+    int f;
+    if (!m) return NULL;
+    m->name = (char *)malloc(strlen(name) + 1);
+    strcpy(m->name, name);
+    m->logging = logging;
+    for (f = 0; f < F_COUNT + MN_NT; f++) {
+        const mn_function *fn = f < F_COUNT ? &mn_functions[f] : &mn_transitions[f - F_COUNT];
+        casadi_int a, r, i, w;
+        fn->work(&a, &r, &i, &w);
+        sz_arg = a > sz_arg ? a : sz_arg;
+        sz_res = r > sz_res ? r : sz_res;
+        sz_iw = i > sz_iw ? i : sz_iw;
+        sz_w = w > sz_w ? w : sz_w;
+        m->mem[f] = fn->checkout();
+    }
+    m->arg = (const casadi_real **)calloc(sz_arg + 1, sizeof(casadi_real *));
+    m->res = (casadi_real **)calloc(sz_res + 1, sizeof(casadi_real *));
+    m->iw = (casadi_int *)calloc(sz_iw + 1, sizeof(casadi_int));
+    m->w = (casadi_real *)calloc(sz_w + 1, sizeof(casadi_real));
+    memcpy(m->u, mn_u_default, sizeof(double) * MN_NU);
+    memcpy(m->p, mn_p_default, sizeof(double) * MN_NP);
+    memcpy(m->d, mn_d_default, sizeof(double) * MN_ND);
+    memcpy(m->s, mn_s_default, sizeof(double) * MN_NS);
+    for (f = 0; f < MN_NG; f++) m->armed[f] = 1.0;
+    m->need_init = 1;
+    changed(m);
+    m->mode = MODE_INSTANTIATED;
+    return m;
+}
+
+static void destroy(Instance *m) {
+    int f;
+    if (!m) return;
+    for (f = 0; f < F_COUNT + MN_NT; f++)
+        (f < F_COUNT ? &mn_functions[f] : &mn_transitions[f - F_COUNT])->release(m->mem[f]);
+    free(m->arg); free(m->res); free(m->iw); free(m->w); free(m->name); free(m);
+}
+
+static int get_real(Instance *m, const uint32_t *vr, size_t n, double *value) {
+    size_t i;
+    int st;
+    for (i = 0; i < n; i++) {
+        uint32_t r = vr[i];
+        if (r == 0) { value[i] = m->t; continue; }
+        if (r > MN_NVAR) { logf_(m, ST_ERROR, "logStatusError", "no variable has value reference %u", r); return ST_ERROR; }
+        switch (mn_vr_kind[r]) {
+        case 0: if ((st = ensure(m, &m->need_y, F_OBSERVED, m->y)) != ST_OK) return st;
+                value[i] = m->y[mn_vr_index[r]]; break;
+        case 1: if ((st = ensure(m, &m->need_xdot, F_ODE, m->xdot)) != ST_OK) return st;
+                value[i] = m->xdot[mn_vr_index[r]]; break;
+        default: if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
+                value[i] = m->g[mn_vr_index[r]]; break;
+        }
+    }
+    return ST_OK;
+}
+
+static int set_real(Instance *m, const uint32_t *vr, size_t n, const double *value) {
+    size_t i;
+    for (i = 0; i < n; i++) {
+        uint32_t r = vr[i];
+        int where = r <= MN_NVAR ? mn_vr_set[r] : -1, k = r <= MN_NVAR ? mn_vr_set_index[r] : 0;
+        int before_init = m->mode == MODE_INSTANTIATED || m->mode == MODE_INIT;
+        if (where == 1 && before_init) { m->s[k] = value[i]; m->need_init = 1; }
+        else if (where == 2) { m->u[k] = value[i]; }
+        else if (where == 3 && (before_init || m->mode == MODE_EVENT)) { m->p[k] = value[i]; if (before_init) m->need_init = 1; }
+        else if (where == 4 && before_init) { m->d[k] = value[i]; m->need_init = 1; }
+        else if (!before_init && r <= MN_NVAR && mn_vr_known[r] == 1) {
+            m->x[mn_vr_known_index[r]] = value[i];      /* a state: as fmi2SetContinuousStates (CasADi's import) */
+        }
+        else {
+            logf_(m, ST_ERROR, "logStatusError", "variable with value reference %u cannot be set %s", r,
+                  before_init ? "(it is calculated)" : "after initialisation (only inputs, and tunable parameters in "
+                  "event mode)");
+            return ST_ERROR;
+        }
+    }
+    if (n) changed(m);
+    return ST_OK;
+}
+
+/* directional derivatives of derivatives and observed values along seeds of states, inputs, parameters */
+static int directional(Instance *m, const uint32_t *unknown, size_t nu, const uint32_t *known, size_t nk,
+                       const double *seed, double *sens) {
+    double dx[MN_NX + 1] = {0}, du[MN_NU + 1] = {0}, dp[MN_NP + 1] = {0};
+    double dxdot[MN_NX + 1], dy[MN_NY + 1], dz[MN_NZ + 1];
+    const double *in[9] = {&m->t, m->x, m->z, m->u, m->p, m->d, dx, du, dp};
+    double *out[3] = {dxdot, dy, dz};
+    size_t i;
+    int st;
+    if ((st = ensure_init(m)) != ST_OK || (st = ensure_z(m)) != ST_OK) return st;
+    for (i = 0; i < nk; i++) {
+        uint32_t r = known[i];
+        int k = r <= MN_NVAR ? mn_vr_known_index[r] : -1;
+        switch (r <= MN_NVAR ? mn_vr_known[r] : -1) {
+        case 1: dx[k] += seed[i]; break;
+        case 2: du[k] += seed[i]; break;
+        case 3: dp[k] += seed[i]; break;
+        default:
+            logf_(m, ST_ERROR, "logStatusError", "directional derivative: value reference %u is not a state, input "
+                  "or parameter", r);
+            return ST_ERROR;
+        }
+    }
+    call(m, F_FORWARD, in, 9, out, 3);
+    for (i = 0; i < nu; i++) {
+        uint32_t r = unknown[i];
+        if (r >= 1 && r <= MN_NVAR && mn_vr_kind[r] == 0) sens[i] = dy[mn_vr_index[r]];
+        else if (r >= 1 && r <= MN_NVAR && mn_vr_kind[r] == 1) sens[i] = dxdot[mn_vr_index[r]];
+        else {
+            logf_(m, ST_ERROR, "logStatusError", "directional derivative: value reference %u is not a derivative or "
+                  "an observed variable", r);
+            return ST_ERROR;
+        }
+    }
+    return ST_OK;
+}
+
+#if FMI_VERSION == 2
+/* ---------------------------------------------------------------- FMI 2.0 Model Exchange */
+typedef void *fmi2Component;
+typedef int fmi2Boolean;
+typedef unsigned int fmi2ValueReference;
+typedef void (*fmi2CallbackLogger)(void *, const char *, int, const char *, const char *, ...);
+typedef struct {
+    fmi2CallbackLogger logger;
+    void *(*allocateMemory)(size_t, size_t);
+    void (*freeMemory)(void *);
+    void (*stepFinished)(void *, int);
+    void *componentEnvironment;
+} fmi2CallbackFunctions;
+typedef struct {
+    fmi2Boolean newDiscreteStatesNeeded, terminateSimulation, nominalsOfContinuousStatesChanged,
+        valuesOfContinuousStatesChanged, nextEventTimeDefined;
+    double nextEventTime;
+} fmi2EventInfo;
+
+static void logf_(Instance *m, int status, const char *category, const char *fmt, ...) {
+    char text[1024];
+    va_list ap;
+    if (!m->logger || (!m->logging && status < ST_WARNING)) return;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    ((fmi2CallbackLogger)m->logger)(m->environment, m->name, status, category, "%s", text);
+}
+
+EXPORT const char *fmi2GetTypesPlatform(void) { return "default"; }
+EXPORT const char *fmi2GetVersion(void) { return "2.0"; }
+EXPORT int fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n, const char *const cat[]) {
+    (void)n; (void)cat; ((Instance *)c)->logging = on; return ST_OK; }
+
+EXPORT fmi2Component fmi2Instantiate(const char *name, int type, const char *guid, const char *resources,
+                                     const fmi2CallbackFunctions *functions, fmi2Boolean visible, fmi2Boolean loggingOn) {
+    Instance *m;
+    (void)resources; (void)visible;
+    if (type != 0 || strcmp(guid, MN_GUID) != 0) {
+        if (functions && functions->logger)
+            functions->logger(functions->componentEnvironment, name, ST_ERROR, "logStatusError",
+                              type != 0 ? "this FMU supports Model Exchange only" : "GUID %s does not match this FMU",
+                              guid);
+        return NULL;
+    }
+    m = create(name, loggingOn);
+    if (m && functions) { m->logger = (void *)functions->logger; m->environment = functions->componentEnvironment; }
+    return m;
+}
+EXPORT void fmi2FreeInstance(fmi2Component c) { destroy((Instance *)c); }
+EXPORT int fmi2SetupExperiment(fmi2Component c, fmi2Boolean tolDefined, double tol, double start, fmi2Boolean stopDefined, double stop) {
+    (void)tolDefined; (void)tol; (void)stopDefined; (void)stop; ((Instance *)c)->t = start; return ST_OK; }
+EXPORT int fmi2EnterInitializationMode(fmi2Component c) { ((Instance *)c)->mode = MODE_INIT; return ST_OK; }
+EXPORT int fmi2ExitInitializationMode(fmi2Component c) {
+    Instance *m = (Instance *)c;
+    int st = ensure_init(m);
+    if (st != ST_OK) return st;
+    if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
+    arm(m);
+    m->mode = MODE_EVENT;
+    return ST_OK;
+}
+EXPORT int fmi2Terminate(fmi2Component c) { ((Instance *)c)->mode = MODE_TERMINATED; return ST_OK; }
+EXPORT int fmi2Reset(fmi2Component c) {
+    Instance *m = (Instance *)c;
+    memcpy(m->u, mn_u_default, sizeof(double) * MN_NU);
+    memcpy(m->p, mn_p_default, sizeof(double) * MN_NP);
+    memcpy(m->d, mn_d_default, sizeof(double) * MN_ND);
+    memcpy(m->s, mn_s_default, sizeof(double) * MN_NS);
+    m->t = 0; m->need_init = 1; changed(m); m->mode = MODE_INSTANTIATED;
+    return ST_OK;
+}
+EXPORT int fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, double value[]) {
+    return get_real((Instance *)c, (const uint32_t *)vr, n, value); }
+EXPORT int fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const double value[]) {
+    return set_real((Instance *)c, (const uint32_t *)vr, n, value); }
+static int no_such(fmi2Component c, size_t n, const char *what) {
+    if (n == 0) return ST_OK;
+    logf_((Instance *)c, ST_ERROR, "logStatusError", "this FMU has no %s variables", what);
+    return ST_ERROR;
+}
+EXPORT int fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, int v[]) { (void)vr; (void)v; return no_such(c, n, "Integer"); }
+EXPORT int fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, const int v[]) { (void)vr; (void)v; return no_such(c, n, "Integer"); }
+EXPORT int fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]) { (void)vr; (void)v; return no_such(c, n, "Boolean"); }
+EXPORT int fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]) { (void)vr; (void)v; return no_such(c, n, "Boolean"); }
+EXPORT int fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const char *v[]) { (void)vr; (void)v; return no_such(c, n, "String"); }
+EXPORT int fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const char *const v[]) { (void)vr; (void)v; return no_such(c, n, "String"); }
+static int no_state(fmi2Component c) {
+    logf_((Instance *)c, ST_ERROR, "logStatusError", "this FMU cannot save or restore its state (canGetAndSetFMUstate=false)");
+    return ST_ERROR;
+}
+EXPORT int fmi2GetFMUstate(fmi2Component c, void **s) { (void)s; return no_state(c); }
+EXPORT int fmi2SetFMUstate(fmi2Component c, void *s) { (void)s; return no_state(c); }
+EXPORT int fmi2FreeFMUstate(fmi2Component c, void **s) { (void)s; return no_state(c); }
+EXPORT int fmi2SerializedFMUstateSize(fmi2Component c, void *s, size_t *n) { (void)s; (void)n; return no_state(c); }
+EXPORT int fmi2SerializeFMUstate(fmi2Component c, void *s, char b[], size_t n) { (void)s; (void)b; (void)n; return no_state(c); }
+EXPORT int fmi2DeSerializeFMUstate(fmi2Component c, const char b[], size_t n, void **s) { (void)s; (void)b; (void)n; return no_state(c); }
+EXPORT int fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference unknown[], size_t nu,
+                                        const fmi2ValueReference known[], size_t nk, const double dv_known[], double dv_unknown[]) {
+    return directional((Instance *)c, (const uint32_t *)unknown, nu, (const uint32_t *)known, nk, dv_known, dv_unknown); }
+EXPORT int fmi2EnterEventMode(fmi2Component c) { ((Instance *)c)->mode = MODE_EVENT; return ST_OK; }
+EXPORT int fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info) {
+    Instance *m = (Instance *)c;
+    int values_changed, more, st = update_discrete(m, &values_changed, &more);
+    info->newDiscreteStatesNeeded = more;
+    info->terminateSimulation = 0;
+    info->nominalsOfContinuousStatesChanged = 0;
+    info->valuesOfContinuousStatesChanged = values_changed;
+    info->nextEventTimeDefined = next_time_event(m, &info->nextEventTime);
+    return st;
+}
+EXPORT int fmi2EnterContinuousTimeMode(fmi2Component c) { ((Instance *)c)->mode = MODE_CONTINUOUS; return ST_OK; }
+EXPORT int fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetPrior, fmi2Boolean *enterEventMode, fmi2Boolean *terminate) {
+    Instance *m = (Instance *)c;
+    int st = ensure_z(m);
+    (void)noSetPrior;
+    *enterEventMode = 0; *terminate = 0;
+    if (st == ST_OK) accept(m);
+    return st;
+}
+EXPORT int fmi2SetTime(fmi2Component c, double t) { Instance *m = (Instance *)c; m->t = t; changed(m); return ST_OK; }
+EXPORT int fmi2SetContinuousStates(fmi2Component c, const double x[], size_t n) {
+    Instance *m = (Instance *)c; memcpy(m->x, x, sizeof(double) * n); changed(m); return ST_OK; }
+EXPORT int fmi2GetDerivatives(fmi2Component c, double xdot[], size_t n) {
+    Instance *m = (Instance *)c;
+    int st = ensure(m, &m->need_xdot, F_ODE, m->xdot);
+    memcpy(xdot, m->xdot, sizeof(double) * n);
+    return st;
+}
+EXPORT int fmi2GetEventIndicators(fmi2Component c, double g[], size_t n) {
+    Instance *m = (Instance *)c;
+    int st = ensure(m, &m->need_g, F_ZERO, m->g);
+    memcpy(g, m->g, sizeof(double) * n);
+    return st;
+}
+EXPORT int fmi2GetContinuousStates(fmi2Component c, double x[], size_t n) {
+    Instance *m = (Instance *)c;
+    int st = ensure_init(m);
+    memcpy(x, m->x, sizeof(double) * n);
+    return st;
+}
+EXPORT int fmi2GetNominalsOfContinuousStates(fmi2Component c, double nominal[], size_t n) {
+    (void)c; memcpy(nominal, mn_x_nominal, sizeof(double) * n); return ST_OK; }
+
+#else
+/* ---------------------------------------------------------------- FMI 3.0 Model Exchange */
+typedef void *fmi3Instance;
+typedef uint32_t fmi3ValueReference;
+typedef void (*fmi3LogMessageCallback)(void *, int, const char *, const char *);
+#define UNSUPPORTED(m, what) (logf_((Instance *)(m), ST_ERROR, "logStatusError", "%s is not supported by this Model Exchange FMU", what), ST_ERROR)
+
+static void logf_(Instance *m, int status, const char *category, const char *fmt, ...) {
+    char text[1024];
+    va_list ap;
+    if (!m->logger || (!m->logging && status < ST_WARNING)) return;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    ((fmi3LogMessageCallback)m->logger)(m->environment, status, category, text);
+}
+
+EXPORT const char *fmi3GetVersion(void) { return "3.0"; }
+EXPORT int fmi3SetDebugLogging(fmi3Instance c, bool on, size_t n, const char *const cat[]) {
+    (void)n; (void)cat; ((Instance *)c)->logging = on; return ST_OK; }
+EXPORT fmi3Instance fmi3InstantiateModelExchange(const char *name, const char *token, const char *resources, bool visible,
+                                                 bool loggingOn, void *environment, fmi3LogMessageCallback log) {
+    Instance *m;
+    (void)resources; (void)visible;
+    if (strcmp(token, MN_GUID) != 0) {
+        if (log) log(environment, ST_ERROR, "logStatusError", "instantiation token does not match this FMU");
+        return NULL;
+    }
+    m = create(name, loggingOn);
+    if (m) { m->logger = (void *)log; m->environment = environment; }
+    return m;
+}
+EXPORT fmi3Instance fmi3InstantiateCoSimulation(const char *a, const char *b, const char *c, bool d, bool e, bool f, bool g,
+                                                const fmi3ValueReference h[], size_t i, void *j, void *k, void *l) {
+    (void)a; (void)b; (void)c; (void)d; (void)e; (void)f; (void)g; (void)h; (void)i; (void)j; (void)k; (void)l; return NULL; }
+EXPORT fmi3Instance fmi3InstantiateScheduledExecution(const char *a, const char *b, const char *c, bool d, bool e, void *f,
+                                                      void *g, void *h, void *i, void *j) {
+    (void)a; (void)b; (void)c; (void)d; (void)e; (void)f; (void)g; (void)h; (void)i; (void)j; return NULL; }
+EXPORT void fmi3FreeInstance(fmi3Instance c) { destroy((Instance *)c); }
+EXPORT int fmi3EnterInitializationMode(fmi3Instance c, bool tolDefined, double tol, double start, bool stopDefined, double stop) {
+    Instance *m = (Instance *)c;
+    (void)tolDefined; (void)tol; (void)stopDefined; (void)stop;
+    m->t = start; m->mode = MODE_INIT; m->need_init = 1; return ST_OK; }
+EXPORT int fmi3ExitInitializationMode(fmi3Instance c) {
+    Instance *m = (Instance *)c;
+    int st = ensure_init(m);
+    if (st != ST_OK) return st;
+    if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
+    arm(m);
+    m->mode = MODE_EVENT;
+    return ST_OK;
+}
+EXPORT int fmi3EnterEventMode(fmi3Instance c) { ((Instance *)c)->mode = MODE_EVENT; return ST_OK; }
+EXPORT int fmi3Terminate(fmi3Instance c) { ((Instance *)c)->mode = MODE_TERMINATED; return ST_OK; }
+EXPORT int fmi3Reset(fmi3Instance c) {
+    Instance *m = (Instance *)c;
+    memcpy(m->u, mn_u_default, sizeof(double) * MN_NU);
+    memcpy(m->p, mn_p_default, sizeof(double) * MN_NP);
+    memcpy(m->d, mn_d_default, sizeof(double) * MN_ND);
+    memcpy(m->s, mn_s_default, sizeof(double) * MN_NS);
+    m->t = 0; m->need_init = 1; changed(m); m->mode = MODE_INSTANTIATED;
+    return ST_OK;
+}
+EXPORT int fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, double v[], size_t nv) {
+    (void)nv; return get_real((Instance *)c, vr, n, v); }
+EXPORT int fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const double v[], size_t nv) {
+    (void)nv; return set_real((Instance *)c, vr, n, v); }
+#define NO_TYPE(T, C) \
+    EXPORT int fmi3Get##T(fmi3Instance c, const fmi3ValueReference vr[], size_t n, C v[], size_t nv) { \
+        (void)vr; (void)v; (void)nv; return n ? UNSUPPORTED(c, "a " #T " variable") : ST_OK; } \
+    EXPORT int fmi3Set##T(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const C v[], size_t nv) { \
+        (void)vr; (void)v; (void)nv; return n ? UNSUPPORTED(c, "a " #T " variable") : ST_OK; }
+NO_TYPE(Float32, float)
+NO_TYPE(Int8, int8_t)
+NO_TYPE(UInt8, uint8_t)
+NO_TYPE(Int16, int16_t)
+NO_TYPE(UInt16, uint16_t)
+NO_TYPE(Int32, int32_t)
+NO_TYPE(UInt32, uint32_t)
+NO_TYPE(Int64, int64_t)
+NO_TYPE(UInt64, uint64_t)
+NO_TYPE(Boolean, bool)
+NO_TYPE(String, char *)
+EXPORT int fmi3GetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t n, size_t s[], uint8_t *v[], size_t nv) {
+    (void)vr; (void)s; (void)v; (void)nv; return n ? UNSUPPORTED(c, "a Binary variable") : ST_OK; }
+EXPORT int fmi3SetBinary(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const size_t s[], const uint8_t *const v[], size_t nv) {
+    (void)vr; (void)s; (void)v; (void)nv; return n ? UNSUPPORTED(c, "a Binary variable") : ST_OK; }
+EXPORT int fmi3GetClock(fmi3Instance c, const fmi3ValueReference vr[], size_t n, bool v[]) {
+    (void)vr; (void)v; return n ? UNSUPPORTED(c, "a Clock") : ST_OK; }
+EXPORT int fmi3SetClock(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const bool v[]) {
+    (void)vr; (void)v; return n ? UNSUPPORTED(c, "a Clock") : ST_OK; }
+EXPORT int fmi3GetNumberOfVariableDependencies(fmi3Instance c, fmi3ValueReference vr, size_t *n) {
+    (void)vr; (void)n; return UNSUPPORTED(c, "fmi3GetNumberOfVariableDependencies (see ModelStructure)"); }
+EXPORT int fmi3GetVariableDependencies(fmi3Instance c, fmi3ValueReference a, size_t b[], fmi3ValueReference d[], size_t e[], int f[], size_t g) {
+    (void)a; (void)b; (void)d; (void)e; (void)f; (void)g; return UNSUPPORTED(c, "fmi3GetVariableDependencies (see ModelStructure)"); }
+EXPORT int fmi3GetFMUState(fmi3Instance c, void **s) { (void)s; return UNSUPPORTED(c, "saving the FMU state"); }
+EXPORT int fmi3SetFMUState(fmi3Instance c, void *s) { (void)s; return UNSUPPORTED(c, "restoring the FMU state"); }
+EXPORT int fmi3FreeFMUState(fmi3Instance c, void **s) { (void)s; return UNSUPPORTED(c, "freeing an FMU state"); }
+EXPORT int fmi3SerializedFMUStateSize(fmi3Instance c, void *s, size_t *n) { (void)s; (void)n; return UNSUPPORTED(c, "serialising the FMU state"); }
+EXPORT int fmi3SerializeFMUState(fmi3Instance c, void *s, uint8_t b[], size_t n) { (void)s; (void)b; (void)n; return UNSUPPORTED(c, "serialising the FMU state"); }
+EXPORT int fmi3DeserializeFMUState(fmi3Instance c, const uint8_t b[], size_t n, void **s) { (void)s; (void)b; (void)n; return UNSUPPORTED(c, "deserialising the FMU state"); }
+EXPORT int fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unknown[], size_t nu,
+                                        const fmi3ValueReference known[], size_t nk, const double seed[], size_t ns,
+                                        double sens[], size_t nsens) {
+    (void)ns; (void)nsens; return directional((Instance *)c, unknown, nu, known, nk, seed, sens); }
+EXPORT int fmi3GetAdjointDerivative(fmi3Instance c, const fmi3ValueReference a[], size_t b, const fmi3ValueReference d[], size_t e,
+                                    const double f[], size_t g, double h[], size_t i) {
+    (void)a; (void)b; (void)d; (void)e; (void)f; (void)g; (void)h; (void)i; return UNSUPPORTED(c, "adjoint derivatives"); }
+EXPORT int fmi3EnterConfigurationMode(fmi3Instance c) { return UNSUPPORTED(c, "configuration mode"); }
+EXPORT int fmi3ExitConfigurationMode(fmi3Instance c) { return UNSUPPORTED(c, "configuration mode"); }
+EXPORT int fmi3GetIntervalDecimal(fmi3Instance c, const fmi3ValueReference a[], size_t b, double d[], int e[]) {
+    (void)a; (void)b; (void)d; (void)e; return UNSUPPORTED(c, "clocks"); }
+EXPORT int fmi3GetIntervalFraction(fmi3Instance c, const fmi3ValueReference a[], size_t b, uint64_t d[], uint64_t e[], int f[]) {
+    (void)a; (void)b; (void)d; (void)e; (void)f; return UNSUPPORTED(c, "clocks"); }
+EXPORT int fmi3GetShiftDecimal(fmi3Instance c, const fmi3ValueReference a[], size_t b, double d[]) {
+    (void)a; (void)b; (void)d; return UNSUPPORTED(c, "clocks"); }
+EXPORT int fmi3GetShiftFraction(fmi3Instance c, const fmi3ValueReference a[], size_t b, uint64_t d[], uint64_t e[]) {
+    (void)a; (void)b; (void)d; (void)e; return UNSUPPORTED(c, "clocks"); }
+EXPORT int fmi3SetIntervalDecimal(fmi3Instance c, const fmi3ValueReference a[], size_t b, const double d[]) {
+    (void)a; (void)b; (void)d; return UNSUPPORTED(c, "clocks"); }
+EXPORT int fmi3SetIntervalFraction(fmi3Instance c, const fmi3ValueReference a[], size_t b, const uint64_t d[], const uint64_t e[]) {
+    (void)a; (void)b; (void)d; (void)e; return UNSUPPORTED(c, "clocks"); }
+EXPORT int fmi3SetShiftDecimal(fmi3Instance c, const fmi3ValueReference a[], size_t b, const double d[]) {
+    (void)a; (void)b; (void)d; return UNSUPPORTED(c, "clocks"); }
+EXPORT int fmi3SetShiftFraction(fmi3Instance c, const fmi3ValueReference a[], size_t b, const uint64_t d[], const uint64_t e[]) {
+    (void)a; (void)b; (void)d; (void)e; return UNSUPPORTED(c, "clocks"); }
+EXPORT int fmi3EvaluateDiscreteStates(fmi3Instance c) { return UNSUPPORTED(c, "fmi3EvaluateDiscreteStates"); }
+EXPORT int fmi3UpdateDiscreteStates(fmi3Instance c, bool *needUpdate, bool *terminate, bool *nominalsChanged,
+                                    bool *valuesChanged, bool *nextDefined, double *nextTime) {
+    Instance *m = (Instance *)c;
+    int values_changed, more, st = update_discrete(m, &values_changed, &more);
+    *needUpdate = more; *terminate = false; *nominalsChanged = false; *valuesChanged = values_changed;
+    *nextDefined = next_time_event(m, nextTime);
+    return st;
+}
+EXPORT int fmi3EnterContinuousTimeMode(fmi3Instance c) { ((Instance *)c)->mode = MODE_CONTINUOUS; return ST_OK; }
+EXPORT int fmi3CompletedIntegratorStep(fmi3Instance c, bool noSetPrior, bool *enterEventMode, bool *terminate) {
+    Instance *m = (Instance *)c;
+    int st = ensure_z(m);
+    (void)noSetPrior;
+    *enterEventMode = false; *terminate = false;
+    if (st == ST_OK) accept(m);
+    return st;
+}
+EXPORT int fmi3SetTime(fmi3Instance c, double t) { Instance *m = (Instance *)c; m->t = t; changed(m); return ST_OK; }
+EXPORT int fmi3SetContinuousStates(fmi3Instance c, const double x[], size_t n) {
+    Instance *m = (Instance *)c; memcpy(m->x, x, sizeof(double) * n); changed(m); return ST_OK; }
+EXPORT int fmi3GetContinuousStateDerivatives(fmi3Instance c, double xdot[], size_t n) {
+    Instance *m = (Instance *)c;
+    int st = ensure(m, &m->need_xdot, F_ODE, m->xdot);
+    memcpy(xdot, m->xdot, sizeof(double) * n);
+    return st;
+}
+EXPORT int fmi3GetEventIndicators(fmi3Instance c, double g[], size_t n) {
+    Instance *m = (Instance *)c;
+    int st = ensure(m, &m->need_g, F_ZERO, m->g);
+    memcpy(g, m->g, sizeof(double) * n);
+    return st;
+}
+EXPORT int fmi3GetContinuousStates(fmi3Instance c, double x[], size_t n) {
+    Instance *m = (Instance *)c;
+    int st = ensure_init(m);
+    memcpy(x, m->x, sizeof(double) * n);
+    return st;
+}
+EXPORT int fmi3GetNominalsOfContinuousStates(fmi3Instance c, double nominal[], size_t n) {
+    (void)c; memcpy(nominal, mn_x_nominal, sizeof(double) * n); return ST_OK; }
+EXPORT int fmi3GetNumberOfEventIndicators(fmi3Instance c, size_t *n) { (void)c; *n = MN_NG; return ST_OK; }
+EXPORT int fmi3GetNumberOfContinuousStates(fmi3Instance c, size_t *n) { (void)c; *n = MN_NX; return ST_OK; }
+EXPORT int fmi3GetOutputDerivatives(fmi3Instance c, const fmi3ValueReference a[], size_t b, const int d[], double e[], size_t f) {
+    (void)a; (void)b; (void)d; (void)e; (void)f; return UNSUPPORTED(c, "output derivatives (Co-Simulation)"); }
+EXPORT int fmi3EnterStepMode(fmi3Instance c) { return UNSUPPORTED(c, "Co-Simulation"); }
+EXPORT int fmi3DoStep(fmi3Instance c, double a, double b, bool d, bool *e, bool *f, bool *g, double *h) {
+    (void)a; (void)b; (void)d; (void)e; (void)f; (void)g; (void)h; return UNSUPPORTED(c, "Co-Simulation"); }
+EXPORT int fmi3ActivateModelPartition(fmi3Instance c, fmi3ValueReference a, double b) {
+    (void)a; (void)b; return UNSUPPORTED(c, "Scheduled Execution"); }
+#endif
