@@ -330,3 +330,36 @@ def double_integrator(m=1.0, v0=0.0, name="double_integrator") -> mn.Model:
     push = model.add(tr.Force(name="push"))
     model.connect(push.flange, mass.flange_a)
     return model
+
+
+class Relay(rot.PartialOneFlange):
+    """A torque switched by the angle, with hysteresis: on (tau_on on the flange) when the angle rises
+    through phi_on, off when it falls through phi_off — the test scene of a discrete mode."""
+
+    tau_on = mn.Param(1.0, unit="N*m", doc="torque on the flange while the relay is closed")
+    phi_on = mn.Param(1.0, unit="rad", doc="angle rising through which the relay closes")
+    phi_off = mn.Param(0.0, unit="rad", doc="angle falling through which the relay opens")
+    on = mn.Mode(0.0, doc="relay closed (1) or open (0)")
+    tau = mn.Var(unit="N*m", doc="torque the relay drives its flange with")
+
+    def equations(self):
+        return [mn.Eq(self.tau, self.on * self.tau_on), mn.Eq(self.flange.tau, -self.tau)]
+
+    def events(self):
+        return [mn.When(self.flange.phi - self.phi_on, reset={self.on: 1.0}, direction="rising", doc="close"),
+                mn.When(self.flange.phi - self.phi_off, reset={self.on: 0.0}, direction="falling", doc="open")]
+
+
+def relay_inertia(J=0.5, w0=2.0, tau_on=-1.0, phi_on=1.0, phi_off=0.5, c=0.0, name="relay_inertia") -> mn.Model:
+    """An inertia at phi = 0 with speed w0, driven by a Relay (and pulled back by a spring c to a fixed
+    housing when c > 0: the relay then switches on every swing)."""
+    m = mn.Model(name)
+    j1 = m.add(rot.Inertia(name="j1", J=J, phi_start=0.0, w_start=w0))
+    relay = m.add(Relay(name="relay", tau_on=tau_on, phi_on=phi_on, phi_off=phi_off))
+    m.connect(relay.flange, j1.flange_a)
+    if c > 0:
+        fixed = m.add(rot.Fixed(name="fixed"))
+        spring = m.add(rot.Spring(name="spring", c=c))
+        m.connect(fixed.flange, spring.flange_a)
+        m.connect(spring.flange_b, j1.flange_b)
+    return m

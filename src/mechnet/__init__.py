@@ -1,7 +1,7 @@
 """mechnet: acausal mechanical modelling on CasADi."""
 from .compile import CompiledModel, CompileOptions
-from .core import (Across, Component, Connector, Eq, Input, Model, Output, Param, Port, State, Through, Var,
-                   When, der, nonnegative, positive, time, tunable)
+from .core import (Across, Component, Connector, Eq, Input, Mode, Model, Output, Param, Port, State, Through, Var,
+                   When, der, every_parameter_tunable, nonnegative, positive, time, tunable)
 from .core.errors import (ConnectError, FrozenModelError, HigherIndexError, InitializationError,
                           IntegrationError, InputError, MechnetError, NameConflictError, OcpError, ParameterError,
                           SceneError, StructureError, UnbalancedModelError, UnknownNameError)
@@ -13,10 +13,11 @@ __version__ = "0.1.0"
 
 __all__ = ["Across", "CompileOptions", "CompiledModel", "Component", "ConnectError", "Connector", "Eq",
            "FrozenModelError", "HigherIndexError", "InitializationError", "Input", "InputError",
-           "IntegrationError", "IntegrationWarning", "MechnetError", "Model", "NameConflictError", "OcpError",
+           "IntegrationError", "IntegrationWarning", "MechnetError", "Mode", "Model", "NameConflictError", "OcpError",
            "Output",
            "Param", "ParameterError", "Port", "Result", "SceneError", "State", "StructureError", "Through",
-           "UnbalancedModelError", "UnknownNameError", "Var", "When", "compile", "der", "kinematics", "nonnegative",
+           "UnbalancedModelError", "UnknownNameError", "Var", "When", "compile", "der", "every_parameter_tunable",
+           "kinematics", "nonnegative",
            "ocp",
            "positive", "time", "tunable"]
 

@@ -4,6 +4,7 @@
     mechnet demo [--out DIR] [--only NAME] [--dir DIR] [--debug]
     mechnet simulate FILE [--t-end T] [--rtol R] [--atol A] [--method M] [--n-out N] [--plot PNG] [--csv CSV]
                           [--debug]
+    mechnet export FILE --kind fmu|c|casadi [--fmi 2|3] [--all-parameters] [--overwrite] -o OUT [--debug]
 
 Errors a user can cause (MechnetError) print one `error: ...` line and exit
 with status 2, without a traceback: the message already names the culprit
@@ -71,7 +72,43 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--plot", type=Path, default=None, metavar="PNG", help="save a plot to this file")
     sim.add_argument("--csv", type=Path, default=None, metavar="CSV", help="write every variable to this CSV file")
     sim.set_defaults(run=_simulate)
+
+    exp = sub.add_parser("export", parents=[common], help="compile one scene file and export it (FMU, C, CasADi)")
+    exp.add_argument("file", type=Path, metavar="FILE", help="scene file defining build()")
+    exp.add_argument("--kind", choices=("fmu", "c", "casadi"), default="fmu", help="what to write (default: fmu)")
+    exp.add_argument("--fmi", type=int, choices=(2, 3), default=2, help="FMI version of an FMU (default: 2)")
+    exp.add_argument("--all-parameters", action="store_true",
+                     help="expose every scalar parameter (not only the scene's tunable ones) as a tunable parameter")
+    exp.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
+    exp.add_argument("-o", "--out", type=Path, required=True, metavar="OUT",
+                     help="the .fmu file (kind fmu) or the folder (kinds c and casadi) to write")
+    exp.set_defaults(run=_export)
     return parser
+
+
+def _export(args: argparse.Namespace) -> int:
+    from contextlib import nullcontext
+
+    import mechnet as mn
+    from mechnet.scene import load_scene
+
+    scene = load_scene(args.file)
+    with mn.every_parameter_tunable() if args.all_parameters else nullcontext():
+        model = scene.model()
+    t0 = time.perf_counter()
+    cm = model.compile()
+    path = cm.export(args.out, kind=args.kind, fmi=args.fmi, overwrite=args.overwrite)
+    meta = cm.functions()["metadata"]
+    what = f"FMI {args.fmi}.0 Model Exchange FMU" if args.kind == "fmu" else f"kind {args.kind!r} export"
+    print(f"wrote {path}: {what} of {cm.name!r} in {time.perf_counter() - t0:.2f} s")
+    print(f"  {len(meta['x'])} states, {len(meta['z'])} algebraic (solved inside), {len(meta['u'])} inputs, "
+          f"{len(meta['p'])} tunable parameters, {len(meta['d'])} modes, {len(meta['zero'])} event indicators, "
+          f"{len(meta['time_events'])} time events")
+    print(f"  states: {meta['selection']['reason']}")
+    if meta["folded_parameters"]:
+        print(f"  {len(meta['folded_parameters'])} parameters folded into the equations as numbers "
+              f"(--all-parameters exposes them)")
+    return 0
 
 
 def _version() -> str:

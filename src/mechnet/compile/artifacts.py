@@ -53,12 +53,23 @@ class FlatEquation:
 
 @dataclass(frozen=True)
 class ZeroCrossing:
-    """g(...) crossing zero in `direction` (−1, 0, +1) triggers `resets`: (variable index, new value)."""
+    """g(...) crossing zero in `direction` (−1, 0, +1) triggers `resets`: (variable index, new value),
+    and `mode_resets`: (index in FlatSystem.modes, new value)."""
 
     g: ca.SX
     resets: tuple
     direction: int
     label: str
+    mode_resets: tuple = ()
+
+
+@dataclass(frozen=True)
+class FlatMode:
+    """A discrete variable (`Mode`): a symbol like a parameter, constant between events."""
+
+    name: str
+    symbol: ca.SX
+    start: float
 
 
 @dataclass(frozen=True)
@@ -92,6 +103,7 @@ class FlatSystem:
     multibody: object = None      # MultibodyTree from the tree pass (frames as expressions), or None
     observed_only: tuple = ()     # (name, symbol, unit, expression): names that left the equations (frames)
     intermediates: tuple = ((), ())  # (symbols, definitions): state-only quantities the equations share
+    modes: tuple = ()             # FlatMode: discrete variables, the DAE's d
 
     def expand(self, exprs: list) -> list:
         """`exprs` with the intermediates replaced by their definitions (sharing kept: one pass)."""

@@ -183,6 +183,9 @@ def _fn(name, args, out, out_name):
 
 def reduce_baumgarte(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, options):
     """The Baumgarte route: (reduced FlatSystem, BaumgarteReport, StructureReport, SemiExplicitDAE)."""
+    if original.modes:
+        raise StructureError(f"model {original.name!r} has modes ({', '.join(m.name for m in original.modes)}); "
+                             f"the Baumgarte route does not carry them: compile with the default method")
     pole = float(options.baumgarte_pole)
     if not pole <= 0.0:
         raise StructureError(f"baumgarte_pole = {pole:g} must be negative (0 switches the correction off); "

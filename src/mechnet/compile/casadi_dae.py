@@ -2,7 +2,7 @@
 
 Blocks are solved in BLT order (see tearing.py); each solved variable becomes an
 expression of the base symbols (states x, tearing variables z, inputs u,
-tunable parameters p, time t), substituted only where the next blocks use it so
+tunable parameters p, modes d, time t), substituted only where the next blocks use it so
 the work stays linear in the model size. Every name of the scene — aliases,
 constants, eliminated and torn variables — gets an `observed` expression.
 """
@@ -104,7 +104,8 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     z = ca.vertcat(*[symbols[i] for i in z_index]) if z_index else ca.SX(0, 1)
     u = ca.vertcat(*[symbols[i] for i in u_index]) if u_index else ca.SX(0, 1)
     p = ca.vertcat(*[q.symbol for q in flat.parameters]) if flat.parameters else ca.SX(0, 1)
-    d = ca.SX(0, 1)
+    modes = original.modes                 # (simplify keeps no modes: they are no variables)
+    d = ca.vertcat(*[m.symbol for m in modes]) if modes else ca.SX(0, 1)
 
     def current(i):
         return value.get(i, symbols[i])
@@ -143,7 +144,8 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     # a derivative that survived as a state stands for itself; its own derivative is in ode
     for q in flat.parameters:
         names.append(q.name)
-    obs = ca.vertcat(obs, p)
+    names.extend(m.name for m in modes)
+    obs = ca.vertcat(obs, p, d)
 
     # the tree's shared state-only intermediates, expanded once for everything (sharing kept)
     constraints = [eq for eq in flat.equations if eq.constraint]
@@ -154,13 +156,15 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     ode = _fn("ode", args, ode_expr, "xdot")
     algf = _fn("alg", args, alg_expr, "res")
     observed = _fn("observed", args, obs, "y")
-    zero, transitions = _events(flat, x_index, symbols, current, args, x)
+    resolve = _without_aliases(original, survivor, aliases) if modes else None
+    zero, transitions = _events(flat, x_index, symbols, current, args, x, resolve)
     invariants = _fn("invariants", args, inv, "c")
     x_names = tuple(variables[i].name for i in x_index)
     z_names = tuple(variables[i].name for i in z_index)
     units = {v.name: v.unit for v in original.variables}
     units.update({name: unit for name, _, unit, _ in original.observed_only})
     units.update({q.name: q.unit for q in flat.parameters})
+    units.update({m.name: "1" for m in modes})
     starts = {v.name: v.start for v in original.variables if v.start is not None}
     guesses = {v.name: (v.guess if v.guess is not None else v.default_start) for v in original.variables}
     nominal = {v.name: v.nominal for v in original.variables}
@@ -172,7 +176,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
         name=flat.name, t=t, x=x, z=z, u=u, p=p, d=d,
         x_names=x_names, z_names=z_names,
         u_names=tuple(variables[i].name for i in u_index),
-        p_names=tuple(q.name for q in flat.parameters), d_names=(),
+        p_names=tuple(q.name for q in flat.parameters), d_names=tuple(m.name for m in modes),
         ode=ode, alg=algf, observed=observed, observed_names=tuple(names),
         zero=zero, transition=transitions, invariants=invariants, invariant_names=tuple(eq.describe() for eq in constraints),
         zero_labels=tuple(zc.label for zc in flat.zero_crossings),
@@ -182,7 +186,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
         z_nominal=tuple(variables[i].nominal for i in z_index),
         units=units, starts=starts, guesses=guesses,
         u_default=tuple(variables[i].input_default for i in u_index),
-        p_value=tuple(q.value for q in flat.parameters), d_value=(), time_events=flat.time_events, info=info)
+        p_value=tuple(q.value for q in flat.parameters), d_value=tuple(m.start for m in modes), time_events=flat.time_events, info=info)
 
 
 def _count_observed_only(value, depends, flat, z_index, original) -> int:
@@ -204,8 +208,20 @@ def _count_observed_only(value, depends, flat, z_index, original) -> int:
     return sum(1 for i in value if i not in needed) + eliminated_outputs
 
 
-def _events(flat, x_index, symbols, current, args, x):
-    """zero(t,x,z,u,p,d) stacks the conditions; transition[i] maps the state to its value after event i."""
+def _without_aliases(original, survivor, aliases):
+    """expr -> expr with the variables simplification eliminated replaced by what they equal (a mode's
+    new value: simplify maps only the conditions and state resets)."""
+    gone = [v for v in original.variables if v.name not in survivor]
+    if not gone:
+        return lambda expr: expr
+    olds = ca.vertcat(*[v.symbol for v in gone])
+    news = ca.vertcat(*[aliases.expressions[v.name] for v in gone])
+    return lambda expr: ca.substitute(expr, olds, news)
+
+
+def _events(flat, x_index, symbols, current, args, x, resolve):
+    """zero(t,x,z,u,p,d) stacks the conditions; transition[i] maps the state and the modes to their values
+    after event i (new values computed from those before it)."""
     if not flat.zero_crossings:
         return _fn("zero", args, ca.SX(0, 1), "g"), ()
     position = {s.element_hash(): i for i, s in enumerate(symbols)}
@@ -228,7 +244,12 @@ def _events(flat, x_index, symbols, current, args, x):
                                      f"compiled model (it is computed from other variables); reset a state "
                                      f"({', '.join(flat.variables[j].name for j in x_index)})")
             x_plus[state_pos[i]] = in_base(value)
+        d = args[5]
+        d_plus = [d[k] for k in range(d.numel())]
+        for k, value in zc.mode_resets:
+            d_plus[k] = in_base(resolve(value))
         out = ca.vertcat(*x_plus) if x_plus else ca.SX(0, 1)
         out = flat.expand([out])[0]
-        transitions.append(ca.Function(f"transition_{n}", list(args), [out, args[5]], list(ARGS), ["x_plus", "d_plus"]))
+        d_out = flat.expand([ca.vertcat(*d_plus)])[0] if zc.mode_resets else d
+        transitions.append(ca.Function(f"transition_{n}", list(args), [out, d_out], list(ARGS), ["x_plus", "d_plus"]))
     return _fn("zero", args, g, "g"), tuple(transitions)

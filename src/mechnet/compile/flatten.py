@@ -15,7 +15,7 @@ from ..core.declarations import Across, Input, Output, State, Through
 from ..core.equation import derivative_parent, time
 from ..core.errors import StructureError
 from ..core.model import Model
-from .artifacts import FlatEquation, FlatSystem, FlatVariable, Parameter, ZeroCrossing
+from .artifacts import FlatEquation, FlatMode, FlatSystem, FlatVariable, Parameter, ZeroCrossing
 from .connections import connection_equations
 from .spanning_tree import build_tree
 from ..components.multibody.interfaces import Frame
@@ -48,6 +48,7 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
     effects: dict[str, int] = {}
     time_events: list[tuple[float, str]] = []
     folded: list[str] = []
+    modes: list[FlatMode] = []
 
     def add_variable(var: FlatVariable):
         by_hash[var.symbol.element_hash()] = len(variables)
@@ -82,6 +83,7 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
             decl = type(comp)._declarations[key]
             parameters.append(Parameter(f"{comp.path}.{key}", sym, value, decl.unit, decl,
                                         f"{comp.path} ({ctype})"))
+        modes.extend(FlatMode(f"{comp.path}.{key}", sym, start) for key, (sym, start) in comp.modes.items())
         for key in comp.parameter_names():
             if key not in comp.tunable:
                 folded.append(f"{comp.path}.{key}")
@@ -116,7 +118,8 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
     # derivative symbols become variables; anything else unknown is a user error
     param_hashes = {p.symbol.element_hash() for p in parameters}
     der_of: dict[int, tuple[int, float]] = {}
-    skip = param_hashes | {time.element_hash()}
+    mode_at = {m.symbol.element_hash(): k for k, m in enumerate(modes)}
+    skip = param_hashes | set(mode_at) | {time.element_hash()}
     if tree is not None:
         skip |= {s.element_hash() for s in tree.intermediates[0]}
 
@@ -149,12 +152,13 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
             if s.element_hash() not in by_hash and s.element_hash() not in skip:
                 raise StructureError(f"{label}, event {k + 1}: the condition uses {s.name()!r}, which is "
                                      f"not a variable of the model")
-        resets = []
+        resets, mode_resets = [], []
         for target, value in (when.reset or {}).items():
             target = ca.SX(target)
-            if not (target.is_scalar() and target.is_symbolic()) or target.element_hash() not in by_hash:
-                raise StructureError(f"{label}, event {k + 1}: reset targets must be variables of the model "
-                                     f"(got {target})")
+            h = target.element_hash() if target.is_scalar() and target.is_symbolic() else None
+            if h not in by_hash and h not in mode_at:
+                raise StructureError(f"{label}, event {k + 1}: reset targets must be variables or modes of the "
+                                     f"model (got {target})")
             value = _frames_in(ca.SX(value), tree)
             if value.numel() != 1:
                 raise StructureError(f"{label}, event {k + 1}: the new value of {target} must be a scalar")
@@ -162,19 +166,23 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
                 if s.element_hash() not in by_hash and s.element_hash() not in skip:
                     raise StructureError(f"{label}, event {k + 1}: the new value of {target} uses {s.name()!r}, "
                                          f"which is not a variable of the model")
-            resets.append((by_hash[target.element_hash()], value))
+            if h in mode_at:
+                mode_resets.append((mode_at[h], value))
+            else:
+                resets.append((by_hash[h], value))
         try:
             direction = when.sign()
         except ValueError as exc:
             raise StructureError(f"{label}, event {k + 1}: {exc}") from None
         zero_crossings.append(ZeroCrossing(g, tuple(resets), direction,
-                                           f"{label}, event {k + 1}" + (f" — {when.doc}" if when.doc else "")))
+                                           f"{label}, event {k + 1}" + (f" — {when.doc}" if when.doc else ""),
+                                           tuple(mode_resets)))
 
     return FlatSystem(model.name, tuple(variables), tuple(equations), tuple(parameters), der_of, time,
                       tuple(sorted(effects.items())), time_events=tuple(sorted(time_events)),
                       folded_parameters=tuple(folded), zero_crossings=tuple(zero_crossings),
                       multibody=tree, observed_only=tuple(tree.observed) if tree is not None else (),
-                      intermediates=tree.intermediates if tree is not None else ((), ()))
+                      intermediates=tree.intermediates if tree is not None else ((), ()), modes=tuple(modes))
 
 
 def _frames_in(expr, tree):

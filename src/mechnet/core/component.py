@@ -3,7 +3,9 @@
 A component instance owns CasADi symbols for all its variables (and those of
 its connectors), created at construction and registered for `der()`.
 Parameters are validated at construction; a parameter is a plain float unless
-given as `tunable(...)`, so zero terms fold away symbolically.
+given as `tunable(...)` (or built inside `every_parameter_tunable()`), so zero
+terms fold away symbolically. A `Mode` is a symbol like a tunable parameter, but
+one the events reset.
 """
 from __future__ import annotations
 
@@ -16,8 +18,8 @@ from typing import Optional
 import casadi as ca
 import numpy as np
 
-from .declarations import (Across, Declaration, finite_number, Flag, Input, not_a_number, Param, Port, Through,
-                           Tunable, Variable)
+from .declarations import (Across, all_tunable, Declaration, finite_number, Flag, Input, Mode, not_a_number, Param,
+                           Port, Through, Tunable, Variable)
 from .equation import Eq, register, time
 from .errors import ConnectError, ParameterError, StructureError
 from .signatures import docstring, keyword_names, signature
@@ -131,6 +133,7 @@ class Component:
         self._variables: list[VariableInfo] = []
         self._ports: dict[str, Connector] = {}
         self.tunable: dict[str, tuple[ca.SX, float]] = {}
+        self.modes: dict[str, tuple[ca.SX, float]] = {}       # key -> (symbol, start)
         self.input_defaults: dict[str, float] = {}
         self.signals: dict[str, object] = {}
         label = f"{name} ({type(self).__name__})"
@@ -146,12 +149,16 @@ class Component:
                 if value is None:
                     raise ParameterError(f"{label}: parameter {key} is required ({decl.doc}, unit {decl.unit})")
                 number = decl.validate(label, value)
-                if isinstance(value, Tunable):
+                if isinstance(value, Tunable) or (decl.shape == 1 and all_tunable()):
                     sym = ca.SX.sym(f"{name}.{key}")
                     self.tunable[key] = (sym, number)
                     self._values[key] = sym
                 else:
                     self._values[key] = number
+            elif isinstance(decl, Mode):
+                sym = ca.SX.sym(f"{name}.{key}")         # not registered: der() of a mode is 0
+                self.modes[key] = (sym, decl.start)
+                self._values[key] = sym
             elif isinstance(decl, Port):
                 if decl.enabled_by is not None and not self._values[decl.enabled_by]:
                     self._values[key] = DisabledPort(label, key, decl.enabled_by)

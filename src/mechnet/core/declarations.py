@@ -8,13 +8,15 @@ kept (Python class bodies preserve it) so flat names come out in a stable order.
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import Callable, Optional
 
 import casadi as ca
 import numpy as np
 
-from .errors import ParameterError
+from .errors import ParameterError, StructureError
 
 
 def not_a_number(value) -> bool:
@@ -80,6 +82,26 @@ class Tunable:
 def tunable(value: float) -> Tunable:
     """`Spring(c=mn.tunable(100.0))` keeps `c` as a CasADi parameter instead of folding it."""
     return Tunable(float(value))
+
+
+_EVERY_TUNABLE: ContextVar[bool] = ContextVar("every_parameter_tunable", default=False)
+
+
+@contextmanager
+def every_parameter_tunable():
+    """Components built inside keep every scalar parameter symbolic, as if given `tunable(value)`, so an
+    export can expose all of them; vectors and matrices stay folded. A ContextVar: other threads and
+    tasks keep their own setting."""
+    token = _EVERY_TUNABLE.set(True)
+    try:
+        yield
+    finally:
+        _EVERY_TUNABLE.reset(token)
+
+
+def all_tunable() -> bool:
+    """True inside `every_parameter_tunable()`."""
+    return _EVERY_TUNABLE.get()
 
 
 class Declaration:
@@ -161,6 +183,17 @@ class Param(Declaration):
 
 def _shape_text(shape) -> str:
     return f"vector of {shape[0]}" if shape[1] == 1 else f"{shape[0]}x{shape[1]} matrix"
+
+
+class Mode(Declaration):
+    """A discrete variable (unit 1): constant between events, changed only by a `When` reset. It enters
+    the equations like a parameter, so it never becomes an unknown (a relay: `on = Mode(0.0)`)."""
+
+    kind = "mode"
+
+    def __init__(self, start: float = 0.0, *, doc: str = ""):
+        super().__init__(doc=doc)
+        self.start = finite_number(start, "Mode start", StructureError)
 
 
 class Flag(Declaration):

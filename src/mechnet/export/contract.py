@@ -12,9 +12,10 @@ friction element stuck or sliding); in an FMU they are discrete variables.
     invariants(t,x,z,u,p,d) -> c        the constraints index reduction differentiated (0 on the solution)
     zero(t,x,z,u,p,d) -> g              event conditions; an event is g crossing 0 in its direction
     transition[i](t,x,z,u,p,d) -> (x_plus, d_plus)   the states and modes after event i
-    init(t, u, p, s, w0) -> (x, z, residual_norm)    consistent start from the start values s
+    init(t, u, p, d, s, w0) -> (x, z, residual_norm)  consistent start from the start values s
     solve_alg(t, x, z0, u, p, d) -> (z, residual_norm)   z from the states, warm-started at z0
     jac_ode, jac_alg (t,x,z,u,p,d) -> (d/dx, d/dz, d/du, d/dp)    sparse Jacobians
+    alg_jac(t,x,z,u,p,d) -> d alg/d(x, z), dense: the FMU's branch and conditioning watch
     forward(t,x,z,u,p,d, dx,du,dp) -> (dxdot, dy, dz)  directional derivatives along the solution
                                         manifold (z follows x, u, p through alg = 0)
 
@@ -61,7 +62,8 @@ def _build(cm, dae, verdict: dict) -> dict:
                                 [f"d{name[4:]}_d{v}" for v in "xzup"])
     out["solve_alg"] = _solve_alg(dae, args, alg)
     out["forward"] = _forward(dae, args, ode, alg)
-    out["alg_jac_z"] = ca.Function("alg_jac_z", args, [ca.densify(ca.jacobian(alg, dae.z))], list(ARGS), ["J"])
+    out["alg_jac"] = ca.Function("alg_jac", args, [ca.densify(ca.jacobian(alg, ca.vertcat(dae.x, dae.z)))],
+                                 list(ARGS), ["J"])
     init, starts, init_dependencies = _init(dae)
     out["init"] = init
     out["metadata"] = metadata(cm, dae, starts, verdict)
@@ -104,14 +106,14 @@ def _forward(dae, args, ode, alg) -> ca.Function:
 
 
 def _init(dae):
-    """init(t, u, p, s, w0) for the model's own start values (`dae.starts`), the system the simulator
+    """init(t, u, p, d, s, w0) for the model's own start values (`dae.starts`), the system the simulator
     solves at t = 0 with the default inputs and parameters: the same conditions (constants dropped,
     aliases once), the same equations, the same seeds (a start fixing one variable linearly sets it)."""
     u0, p0 = np.array(dae.u_default, dtype=float), np.array(dae.p_value, dtype=float)
     names, conditions, implied = start_conditions(dae, 0.0, u0, p0, dict(dae.starts))
     kept = tuple(c[1] for c in conditions)
     nw = dae.x.numel() + dae.z.numel()
-    w, (t, u, p, fixed), res = initial_equations(dae, names, kept, conditions)
+    w, (t, u, p, d, fixed), res = initial_equations(dae, names, kept, conditions)
     exprs, _, linear, _ = _start_terms(dae, names)
     w0 = ca.SX.sym("w0", nw)
     seeded = [w0[j] for j in range(nw)]
@@ -121,29 +123,28 @@ def _init(dae):
         offset = ca.substitute(exprs[k], w, ca.DM.zeros(nw))
         coef = ca.jacobian(exprs[k], w)[j]
         seeded[j] = (fixed[row[name]] - offset) / coef
-    seed = ca.Function("init_seed", [t, u, p, fixed, w0], [ca.vertcat(*seeded) if nw else ca.SX(0, 1)])
-    newton = damped_newton("init_newton", res, w, [t, u, p, fixed])
-    m = [ca.MX.sym(n, a.numel()) for n, a in (("t", t), ("u", u), ("p", p), ("s", fixed), ("w0", w0))]
-    w_sol, norm = newton(seed(*m), *m[:4])
+    seed = ca.Function("init_seed", [t, u, p, d, fixed, w0], [ca.vertcat(*seeded) if nw else ca.SX(0, 1)])
+    newton = damped_newton("init_newton", res, w, [t, u, p, d, fixed])
+    m = [ca.MX.sym(n, a.numel()) for n, a in (("t", t), ("u", u), ("p", p), ("d", d), ("s", fixed), ("w0", w0))]
+    w_sol, norm = newton(seed(*m), *m[:5])
     nx_ = dae.x.numel()
-    init = ca.Function("init", m, [w_sol[:nx_], w_sol[nx_:], norm], ["t", "u", "p", "s", "w0"],
+    init = ca.Function("init", m, [w_sol[:nx_], w_sol[nx_:], norm], ["t", "u", "p", "d", "s", "w0"],
                        ["x", "z", "residual_norm"])
-    return init, [(c[0], c[2]) for c in conditions], _init_dependencies(dae, w, (t, u, p, fixed), res)
+    return init, [(c[0], c[2]) for c in conditions], _init_dependencies(dae, w, (t, u, p, d, fixed), res)
 
 
 def _init_dependencies(dae, w, knowns, res) -> dict:
     """Which start values s, inputs u and parameters p each state, derivative and observed value
     depends on at the start (FMI's initial unknowns): structural, through the initial system solved as
     an implicit function (`dependencies`)."""
-    t, u, p, fixed = (ca.MX.sym(n, a.numel()) for n, a in zip("tups", knowns))
+    t, u, p, d, fixed = (ca.MX.sym(n, a.numel()) for n, a in zip("tupds", knowns))
     nx_ = dae.x.numel()
     if w.numel():
         g = ca.Function("g", [w, ca.vertcat(*knowns)], [res])
-        w_of = ca.rootfinder("w_of", "newton", g)(ca.DM.zeros(w.numel()), ca.vertcat(t, u, p, fixed))
+        w_of = ca.rootfinder("w_of", "newton", g)(ca.DM.zeros(w.numel()), ca.vertcat(t, u, p, d, fixed))
     else:
         w_of = ca.MX(0, 1)
     x, z = w_of[:nx_], w_of[nx_:]
-    d = ca.MX.sym("d", dae.d.numel())
     exprs = {"x": x, "xdot": dae.ode(t, x, z, u, p, d), "y": dae.observed(t, x, z, u, p, d)}
     return {f"init_{name}_{k}": _pattern(ca.jacobian_sparsity(e, v)) if e.numel() and v.numel() else []
             for name, e in exprs.items() for k, v in (("s", fixed), ("u", u), ("p", p))}

@@ -20,8 +20,9 @@ from ..caches import BUILD_LOCK
 from .contract import FORMAT_VERSION, ExportError, functions
 
 KINDS = ("casadi", "c", "fmu")
+WITH_JACOBIAN = ("ode", "alg")
 SERIALISED = ("ode", "alg", "observed", "invariants", "zero", "init", "solve_alg", "jac_ode", "jac_alg",
-              "forward", "alg_jac_z")
+              "forward", "alg_jac")
 
 
 def export(cm, path, kind: str = "casadi", *, fmi: int = 2, overwrite: bool = False) -> Path:
@@ -120,11 +121,20 @@ def generate_c(fns: dict, path: Path, prefix: str, extra: tuple = ()) -> list:
             wrapped = ca.Function(f"{prefix}_{f.name()}", args, f.call(args), f.name_in(), f.name_out())
             cg.add(wrapped)
             exported.append(wrapped.name())
+            if f.name() in WITH_JACOBIAN:       # `external` finds it by name: implicit integrators need it
+                cg.add(_named_jacobian(wrapped))
         with tempfile.TemporaryDirectory() as tmp:
             cg.generate(tmp + os.sep)
             for name in (f"{prefix}.c", f"{prefix}.h"):
                 shutil.copy(Path(tmp) / name, path / name)
     return exported
+
+
+def _named_jacobian(f: ca.Function) -> ca.Function:
+    """f's Jacobian (all outputs by all inputs) as CasADi's `external` looks for it: jac_<name>."""
+    jac = f.jacobian()
+    args = jac.mx_in()
+    return ca.Function(f"jac_{f.name()}", args, jac.call(args), jac.name_in(), jac.name_out())
 
 
 def write_c(fns: dict, path: Path) -> Path:

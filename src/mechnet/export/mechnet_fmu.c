@@ -5,7 +5,7 @@
  * mechnet.export.contract) through the tables in model_data.h:
  *   init       consistent start from the start values (a damped Newton, generated)
  *   solve_alg  the loop equations alg = 0 for z, warm-started from the last accepted z
- *   ode, observed, zero, transition_k, forward (directional derivatives), alg_jac_z
+ *   ode, observed, zero, transition_k, forward (directional derivatives), alg_jac (branch and conditioning)
  * Nothing here depends on the model: model_data.h says what the value references are.
  */
 #include <math.h>
@@ -18,6 +18,7 @@
 #include "model_data.h"
 
 #define EXPORT __attribute__((visibility("default")))
+#define MN_QUALITY_MIN 1e-3     /* conditioning below which the dependent coordinates count as singular */
 
 typedef int (*mn_eval_t)(const casadi_real**, casadi_real**, casadi_int*, casadi_real*, int);
 typedef int (*mn_work_t)(casadi_int*, casadi_int*, casadi_int*, casadi_int*);
@@ -29,9 +30,9 @@ enum { ST_OK = 0, ST_WARNING = 1, ST_DISCARD = 2, ST_ERROR = 3, ST_FATAL = 4 };
 enum { MODE_INSTANTIATED, MODE_INIT, MODE_EVENT, MODE_CONTINUOUS, MODE_TERMINATED };
 
 #define TABLE(name) { MN_PREFIXED(name), MN_PREFIXED(name##_work), MN_PREFIXED(name##_checkout), MN_PREFIXED(name##_release) }
-enum { F_INIT, F_SOLVE_ALG, F_ODE, F_OBSERVED, F_ZERO, F_FORWARD, F_ALG_JAC_Z, F_COUNT };
+enum { F_INIT, F_SOLVE_ALG, F_ODE, F_OBSERVED, F_ZERO, F_FORWARD, F_ALG_JAC, F_COUNT };
 static const mn_function mn_functions[F_COUNT] = {
-    TABLE(init), TABLE(solve_alg), TABLE(ode), TABLE(observed), TABLE(zero), TABLE(forward), TABLE(alg_jac_z)};
+    TABLE(init), TABLE(solve_alg), TABLE(ode), TABLE(observed), TABLE(zero), TABLE(forward), TABLE(alg_jac)};
 static const mn_function mn_transitions[MN_NT + 1] = MN_TRANSITIONS;
 
 typedef struct {
@@ -51,7 +52,7 @@ typedef struct {
     casadi_real **res;
     casadi_int *iw;
     casadi_real *w;
-    double jz[MN_NZ * MN_NZ + 1];
+    double jac[MN_NZ * (MN_NX + MN_NZ) + 1];
 } Instance;
 
 static void logf_(Instance *m, int status, const char *category, const char *fmt, ...);
@@ -74,18 +75,20 @@ static double inf_norm(const double *v, int n) {
     return a;
 }
 
-/* the sign of det(J) (n x n, column-major, overwritten) by LU with partial pivoting; 0 if singular */
-static int det_sign(double *J, int n) {
+/* the sign of det(J) (n x n, column-major, overwritten) by LU with partial pivoting, 0 if singular;
+ * *scale is multiplied by |det(J)| */
+static int det_sign_abs(double *J, int n, double *scale) {
     int sign = 1, i, j, k;
     for (k = 0; k < n; k++) {
         int piv = k;
         for (i = k + 1; i < n; i++) if (fabs(J[i + k * n]) > fabs(J[piv + k * n])) piv = i;
-        if (J[piv + k * n] == 0.0) return 0;
+        if (J[piv + k * n] == 0.0) { *scale = 0.0; return 0; }
         if (piv != k) {
             for (j = 0; j < n; j++) { double tmp = J[k + j * n]; J[k + j * n] = J[piv + j * n]; J[piv + j * n] = tmp; }
             sign = -sign;
         }
         if (J[k + k * n] < 0) sign = -sign;
+        *scale *= fabs(J[k + k * n]);
         for (i = k + 1; i < n; i++) {
             double f = J[i + k * n] / J[k + k * n];
             for (j = k + 1; j < n; j++) J[i + j * n] -= f * J[k + j * n];
@@ -94,17 +97,30 @@ static int det_sign(double *J, int n) {
     return sign;
 }
 
-static int branch_of(Instance *m) {
+/* the sign of det(d alg/d z) (which assembly branch) and the conditioning of the choice of states:
+ * |det(d alg/d z)| over the product of the norms of the rows of d alg/d(x, z) (Hadamard's ratio, in
+ * [0, 1]), 0 where the dependent coordinates stop being functions of the states */
+static int branch_of(Instance *m, double *quality) {
     const double *in[6] = {&m->t, m->x, m->z, m->u, m->p, m->d};
-    double *out[1] = {m->jz};
+    double *out[1] = {m->jac};
+    double q = 1.0;
+    int i, j, sign;
+    *quality = 1.0;
     if (MN_NZ == 0) return 1;
-    call(m, F_ALG_JAC_Z, in, 6, out, 1);
-    return det_sign(m->jz, MN_NZ);
+    call(m, F_ALG_JAC, in, 6, out, 1);
+    for (i = 0; i < MN_NZ; i++) {
+        double row = 0;
+        for (j = 0; j < MN_NX + MN_NZ; j++) row += m->jac[i + j * MN_NZ] * m->jac[i + j * MN_NZ];
+        q /= sqrt(row) > 0 ? sqrt(row) : 1.0;
+    }
+    sign = det_sign_abs(m->jac + MN_NX * MN_NZ, MN_NZ, &q);
+    *quality = q;
+    return sign;
 }
 
 /* z from the loop equations at (t, x), warm-started from the last accepted z */
 static int ensure_z(Instance *m) {
-    double norm;
+    double norm, quality;
     int sign;
     if (!m->need_z) return ST_OK;
     if (MN_NZ > 0) {
@@ -117,7 +133,14 @@ static int ensure_z(Instance *m) {
                   m->t, norm);
             return ST_ERROR;
         }
-        sign = branch_of(m);
+        sign = branch_of(m, &quality);
+        if (quality < MN_QUALITY_MIN) {
+            logf_(m, ST_ERROR, "logStatusError", "t = %.17g: the loop's dependent coordinates are no longer "
+                  "functions of the states %s (conditioning %.2g < %.2g: a singular position of the mechanism); "
+                  "mechnet's simulator re-selects states here, the FMU keeps its one choice", m->t, MN_STATES,
+                  quality, MN_QUALITY_MIN);
+            return ST_ERROR;
+        }
         if (sign != m->branch_sign) {
             logf_(m, ST_ERROR, "logStatusError", "t = %.17g: the solution of the loop equations changed assembly "
                   "branch (det d alg/d z changed sign from %d to %d): the exported choice of states %s cannot "
@@ -148,18 +171,18 @@ static void changed(Instance *m) { m->need_z = m->need_xdot = m->need_y = m->nee
 
 static int initialize(Instance *m) {
     double w0[MN_NX + MN_NZ + 1], norm;
-    const double *in[5] = {&m->t, m->u, m->p, m->s, w0};
+    const double *in[6] = {&m->t, m->u, m->p, m->d, m->s, w0};
     double *out[3] = {m->x, m->z, &norm};
     int i;
     for (i = 0; i < MN_NX + MN_NZ; i++) w0[i] = mn_guess[i];
-    call(m, F_INIT, in, 5, out, 3);
+    call(m, F_INIT, in, 6, out, 3);
     if (!(norm <= 1e-8 * (1.0 + fmax(inf_norm(m->x, MN_NX), inf_norm(m->z, MN_NZ))))) {
         logf_(m, ST_ERROR, "logStatusError", "consistent initialisation failed: residual %.3g after the damped "
               "Newton from the start values; check the start values and parameters", norm);
         return ST_ERROR;
     }
     for (i = 0; i < MN_NZ; i++) m->z_accepted[i] = m->z[i];
-    m->branch_sign = branch_of(m);
+    m->branch_sign = branch_of(m, &norm);
     m->need_init = 0;
     m->need_z = 0;
     m->need_xdot = m->need_y = m->need_g = 1;

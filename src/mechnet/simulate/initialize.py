@@ -106,20 +106,22 @@ def _build_start_terms(dae, names: tuple):
               if len(pattern[k]) == 1 and not ca.depends_on(jac[k, pattern[k][0]], w)}
     coefficients = ca.vertcat(*[jac[k, linear[k]] if k in linear else ca.SX(0) for k in range(len(names))]) \
         if names else ca.SX(0, 1)
-    at_zero = NumpyCall(dense(ca.Function("start_values_at_zero", [w, dae.t, dae.u, dae.p],
+    at_zero = NumpyCall(dense(ca.Function("start_values_at_zero", [w, dae.t, dae.u, dae.p, dae.d],
                                           [exprs, coefficients])))
     return exprs, pattern, linear, at_zero
 
 
-def start_conditions(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, steady_state: bool = False):
-    """The fixed start values that become equations of the initial system, at (t0, u, p).
+def start_conditions(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, steady_state: bool = False,
+                     d: np.ndarray | None = None):
+    """The fixed start values that become equations of the initial system, at (t0, u, p) and modes d
+    (default: the model's start modes).
 
     Those that are constants of the model are checked and dropped, equal ones through an alias
     kept once. Returns (names, conditions, implied): `names` the start names in order, `conditions`
     (name, position among the start expressions or None for der(x) = 0, value), `implied` {position
     in (x, z): (name, value)} for starts that fix one variable linearly (the best Newton start)."""
     nx_, nz = dae.x.numel(), dae.z.numel()
-    args = (t0, u, p)
+    args = (t0, u, p, _modes(dae, d))
     conditions = []
     implied: dict[int, tuple[str, float]] = {}   # state/algebraic -> (name, value) for x_j = const conditions
     names = tuple(start)
@@ -156,10 +158,13 @@ def start_conditions(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, 
 
 
 def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess: dict,
-               steady_state: bool = False) -> InitialPoint:
+               steady_state: bool = False, d: np.ndarray | None = None) -> InitialPoint:
+    """The consistent start: fixed start values enforced, guesses only guessed (module docstring), in
+    the modes d (default: the model's start modes)."""
     nx_, nz = dae.x.numel(), dae.z.numel()
-    args = (t0, u, p)
-    names, conditions, implied = start_conditions(dae, t0, u, p, start, steady_state)
+    d = _modes(dae, d)
+    args = (t0, u, p, d)
+    names, conditions, implied = start_conditions(dae, t0, u, p, start, steady_state, d)
     if nx_ + nz == 0:
         return InitialPoint(np.zeros(0), np.zeros(0), [c[0] for c in conditions], [], 0.0)
     # 2. structure (checked once per model, start names and kept conditions)
@@ -201,7 +206,7 @@ def _build_initial_system(dae, names: tuple, kept: tuple, conditions: list):
 
 
 def initial_equations(dae, names: tuple, kept: tuple, conditions: list):
-    """(w, [t, u, p, fixed], residual): the initial system in the unknowns w = (x, z), checked as
+    """(w, [t, u, p, d, fixed], residual): the initial system in the unknowns w = (x, z), checked as
     `_initial_system` says; the exported `init` solves the same system (`export/contract.py`)."""
     nx_, nz = dae.x.numel(), dae.z.numel()
     exprs = _start_terms(dae, names)[0]
@@ -226,7 +231,11 @@ def initial_equations(dae, names: tuple, kept: tuple, conditions: list):
         _too_few(missing, _underdetermined(rows_pattern, row_of_w), nx_, list(dae.x_names) + list(dae.z_names))
     fixed = ca.SX.sym("fixed", len(rows))
     res_expr = ca.vertcat(ca.vertcat(*rows) - fixed, alg) if rows_expr else ca.SX(0, 1)
-    return w, [dae.t, dae.u, dae.p, fixed], res_expr
+    return w, [dae.t, dae.u, dae.p, dae.d, fixed], res_expr
+
+
+def _modes(dae, d) -> np.ndarray:
+    return np.array(dae.d_value if d is None else d, dtype=float).reshape(-1)
 
 
 def _symbolic_observed(dae):

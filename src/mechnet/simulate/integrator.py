@@ -97,10 +97,15 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     plan = plan_inputs(dae, inputs, t_start, t_end, max(grid.size, 2001))
     p = _resolve_params(dae, params)
     d = np.array(dae.d_value, dtype=float)
+    if continue_from is not None:              # a continued run goes on in the modes it ended in
+        d = np.array([continue_from.final_values.get(n, v) for n, v in zip(dae.d_names, d)], dtype=float)
     starts = dict(continue_from.final_state) if continue_from is not None else dict(dae.starts)
     for name, value in (start or {}).items():
         if name not in dae.observed_names:
             raise unknown_name(name, dae.observed_names, "start value for")
+        if name in dae.d_names:                # a mode's start is its value, not an equation
+            d[dae.d_names.index(name)] = _check_value(value, f"start value {name}")
+            continue
         starts[name] = _check_value(value, f"start value {name}")
     for name, value in (guess or {}).items():
         if name not in dae.observed_names:
@@ -108,7 +113,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
         _check_value(value, f"guess {name}")
 
     wall = _time.perf_counter()
-    init = initialize(dae, t_start, plan.constant, p, starts, guess or {}, steady_state)
+    init = initialize(dae, t_start, plan.constant, p, starts, guess or {}, steady_state, d)
     events = breakpoints((*dae.time_events, *plan.time_events), t_start, t_end)
     grid = output_grid(grid, events)
     run = Run(cm, dae, choice, rtol, atol, max_steps, plan, p, d, init)
@@ -129,7 +134,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
                 j += 1
             X = np.array(run.X[k: j + 1]).reshape(j + 1 - k, -1)
             Z = np.array(run.Z[k: j + 1]).reshape(j + 1 - k, -1)
-            values[k: j + 1] = _observe(run.D[k], T[k: j + 1], X, Z, plan, p, d)
+            values[k: j + 1] = _observe(run.D[k], T[k: j + 1], X, Z, plan, p, np.array(run.M[k: j + 1]))
             k = j + 1
         return values
 
@@ -234,11 +239,13 @@ def _resolve_params(dae, given: dict | None) -> np.ndarray:
     return values
 
 
-def _observe(dae, T, X, Z, plan, p, d) -> np.ndarray:
+def _observe(dae, T, X, Z, plan, p, D) -> np.ndarray:
+    """The observed names at the rows (T, X, Z), each with its own modes (a row of D)."""
     n = T.size
     if n == 0:
         return np.zeros((0, len(dae.observed_names)))
     U = plan.at(T)
     observed = mapped_in(dae.info.setdefault("_observed_maps", {}), dae.observed, n)
-    y, = observed(T.reshape(1, -1), X.T, Z.T, U, np.tile(p.reshape(-1, 1), n), np.tile(d.reshape(-1, 1), n))
+    y, = observed(T.reshape(1, -1), X.T, Z.T, U, np.tile(p.reshape(-1, 1), n), D.reshape(n, -1).T)
     return y.T
+

@@ -43,13 +43,15 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
     """The segment loop: integrate between boundaries, restart at events, stop at a failure."""
 
     def __init__(self, cm, dae, choice, rtol, atol, max_steps, plan, p, d, init):
-        self.cm, self.plan, self.p, self.d = cm, plan, p, d
+        self.cm, self.plan, self.p = cm, plan, p
+        self.d = np.asarray(d, dtype=float).copy()    # the modes, changed by state events
         self.choice = choice
         self.settings = (choice.plugin, choice.options, rtol, atol, max_steps)
         self._probing = choice.fallback is not None
         self._pending = None                           # a method switch not yet stamped with its time
         self._use(dae)
         self.T, self.X, self.Z, self.D = [], [], [], []
+        self.M = []                                    # the modes d of each row
         self.events: list[Event] = []
         self.failure = None
         self.stats = {"nsteps": 0, "nfevals": 0, "netfails": 0, "nncfails": 0, "segments": 0,
@@ -74,6 +76,7 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         self.X.append(self.x.copy())
         self.Z.append(self.z.copy())
         self.D.append(self.dae)
+        self.M.append(self.d)
 
     def pvec(self, t0, h):
         """Parameters of an integrator call from t0 over h: the input tables' values depend on t0 (each
@@ -237,6 +240,7 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         self.X.extend(xf)
         self.Z.extend(zf)
         self.D.extend([self.dae] * len(xf))
+        self.M.extend([self.d] * len(xf))
         self._count(F.stats(), h)
         return True, ""
 

@@ -51,7 +51,8 @@ independent of the output grid and the tolerance:
 
 The crossing is located by Illinois regula falsi (to 1e-12 relative in time)
 on a bracket whose ends have the two signs; both limits are recorded, the reset
-is applied and the algebraic variables re-solved. Re-integration for the search
+is applied (to the states and the modes d) and the algebraic variables re-solved
+with the new modes. Re-integration for the search
 leaves out whole turns of periodic coordinates like every other integrator call,
 and a failure in it stops the run with an `IntegrationError` and the partial
 result.
@@ -416,7 +417,8 @@ class StateEvents:
         for _ in range(MAX_CASCADE + 1):
             if not fired:
                 return
-            key = (tuple(fired), (np.asarray(x_e, dtype=float) + 0.0).tobytes())   # + 0.0: −0.0 is 0.0
+            key = (tuple(fired), (np.asarray(x_e, dtype=float) + 0.0).tobytes(),   # + 0.0: −0.0 is 0.0
+                   (self.d + 0.0).tobytes())
             if key in seen or len(seen) == MAX_CASCADE:
                 why = ("its reset leaves the condition crossing, so it fires again at the same instant"
                        if key in seen else f"more than {MAX_CASCADE} rounds of firings at the same instant")
@@ -430,11 +432,11 @@ class StateEvents:
             before, _, _ = self._sides(t_e, (g_left, gd_left, gdd_left))
             near = np.zeros_like(g_left)
             near[fired] = 2 * np.maximum(np.abs(g_left[fired]), np.abs(gd_left[fired]) * self._tol_t(t_e))
-            x_now, u_e = np.asarray(x_e, dtype=float), self._u_at(t_e)
-            for h in fired:
-                x_plus, _ = self.dae.transition[h](t_e, x_now, z_e, u_e, self.p, self.d)
-                x_now = np.asarray(x_plus).ravel()
-            self.x = x_now
+            x_now, d_now, u_e = np.asarray(x_e, dtype=float), self.d, self._u_at(t_e)
+            for h in fired:                   # one after the other: each sees the resets before it
+                x_plus, d_plus = self.dae.transition[h](t_e, x_now, z_e, u_e, self.p, d_now)
+                x_now, d_now = np.asarray(x_plus, dtype=float).ravel(), np.asarray(d_plus, dtype=float).ravel()
+            self.x, self.d = x_now, d_now
             self.z = z_e = solve_algebraic(self.dae, t_e, self.x, z_e, u_e, self.p, self.d)
             x_e = self.x
             self._record_at(t_e, self.x, self.z)

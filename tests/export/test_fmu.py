@@ -1,0 +1,264 @@
+"""FMUs (FMI 2.0 and 3.0 Model Exchange) checked by clients that did not write them: FMPy's validator and
+simulator, and CasADi's own FMU import calling the binary.
+
+Settings: FMPy's CVode at relative tolerance 1e-10, cm.simulate at rtol 1e-10, atol 1e-12, 2 s; random
+points with a fixed seed.
+"""
+import ctypes
+import shutil
+import zipfile
+
+import numpy as np
+import pytest
+
+import mechnet as mn
+from mechnet.export import compiler
+from mechnet.export.model_description import fmi_name
+from mechnet.scene import load_scene
+from models import bouncing_ball, cartesian_pendulum
+
+fmpy = pytest.importorskip("fmpy", reason="fmpy (extra 'test') checks FMUs")
+from fmpy import extract, read_model_description, simulate_fmu  # noqa: E402
+from fmpy.validation import validate_fmu  # noqa: E402
+
+pytestmark = pytest.mark.skipif(compiler() is None, reason="no C compiler ($CC, cc, gcc or clang) to build FMUs")
+EXAMPLES = __import__("pathlib").Path(__file__).parents[2] / "examples"
+SCENES = {
+    "double_pendulum": lambda: load_scene(EXAMPLES / "double_pendulum.py").build().compile(),
+    "four_bar": lambda: load_scene(EXAMPLES / "four_bar.py").build().compile(),     # loop equations inside
+    "drive_line": lambda: load_scene(EXAMPLES / "drive_line.py").build().compile(),  # a torque step: time event
+    "bouncing_ball": lambda: bouncing_ball().compile(),                                # state events
+}
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """(compiled model, FMU path) per (scene, FMI version), built once for the module."""
+    cache = {}
+
+    def get(name, fmi):
+        if (name, fmi) not in cache:
+            cm = cache.get(name) or SCENES[name]()
+            cache[name] = cm
+            cache[name, fmi] = (cm, cm.export(tmp_path_factory.mktemp(name) / f"{name}{fmi}.fmu", kind="fmu", fmi=fmi))
+        return cache[name, fmi]
+    return get
+
+
+CASES = [(name, fmi) for name in SCENES for fmi in (2, 3)]
+
+
+@pytest.mark.parametrize("name,fmi", CASES)
+def test_fmpy_validates_the_fmu(built, name, fmi):
+    _, path = built(name, fmi)
+    assert validate_fmu(str(path)) == []
+    with zipfile.ZipFile(path) as z:
+        files = set(z.namelist())
+    assert "sources/mechnet_fmu.c" in files and "modelDescription.xml" in files
+    assert any(f.startswith("binaries/") and f.endswith(".so") for f in files)
+
+
+def _with_unique_times(res):
+    t = res["time"]
+    keep = np.r_[np.diff(t) > 0, True]          # an event repeats its time (left and right limits)
+    return t, keep
+
+
+@pytest.mark.parametrize("name,fmi", CASES)
+def test_fmpy_simulation_matches_native(built, name, fmi):
+    """FMPy's CVode on the FMU against cm.simulate, both at relative tolerance 1e-10, states within 1e-6
+    over 2 s; the ball's impacts within 1e-6 s; the drive line's torque step at 0.5 s."""
+    cm, path = built(name, fmi)
+    states = list(cm.functions()["metadata"]["selection"]["states"])
+    res = simulate_fmu(str(path), stop_time=2.0, relative_tolerance=1e-10, output_interval=0.01,
+                       output=[fmi_name(n) for n in states], fmi_type="ModelExchange")
+    t, keep = _with_unique_times(res)
+    native = cm.simulate(2.0, rtol=1e-10, atol=1e-12, t_out=t[keep])
+    for n in states:
+        assert np.max(np.abs(res[fmi_name(n)][keep] - native[n])) < 1e-6, n
+    event_times = t[:-1][np.diff(t) == 0]
+    if name == "bouncing_ball":
+        impacts = [e.t for e in native.events if e.kind == "state"]
+        assert len(impacts) == 3
+        # each impact is an event of the FMU (the rising crossings just after are events too, without resets)
+        for ti in impacts:
+            assert np.min(np.abs(event_times - ti)) < 1e-6
+    if name == "drive_line":
+        assert np.min(np.abs(event_times - 0.5)) < 1e-12
+
+
+@pytest.mark.parametrize("name,fmi", [(n, f) for n in ("double_pendulum", "four_bar") for f in (2, 3)])
+def test_declared_dependencies_and_directional_derivatives(built, name, fmi):
+    """Through the FMU's own C API at a random state: the Jacobian of the derivatives by directional
+    derivatives has its nonzeros exactly where ModelStructure declares dependencies, and each column
+    matches central differences of GetDerivatives (step 1e-6) within 1e-6 relative."""
+    cm, path = built(name, fmi)
+    md = read_model_description(str(path))
+    instance = _instance(md, str(path), fmi)
+    try:
+        nx = md.numberOfContinuousStates
+        x0 = _get_states(instance, fmi, nx) + np.random.default_rng(2).uniform(-0.05, 0.05, nx)
+        ders = md.derivatives
+        state_vr = [d.variable.derivative.valueReference for d in ders]
+        der_vr = [d.variable.valueReference for d in ders]
+        jac = np.zeros((nx, nx))
+        for j in range(nx):
+            seed = np.zeros(nx)
+            seed[j] = 1.0
+            _set_states(instance, fmi, x0)
+            jac[:, j] = _directional(instance, fmi, der_vr, [state_vr[j]], [1.0])
+            h = 1e-6
+            _set_states(instance, fmi, x0 + h * seed)
+            plus = _derivatives(instance, fmi, nx)
+            _set_states(instance, fmi, x0 - h * seed)
+            minus = _derivatives(instance, fmi, nx)
+            fd = (plus - minus) / (2 * h)
+            assert np.max(np.abs(fd - jac[:, j])) <= 1e-6 * max(1.0, np.max(np.abs(jac[:, j]))), (name, j)
+        declared = {(i, state_vr.index(dep.valueReference)) for i, d in enumerate(ders) for dep in d.dependencies
+                    if dep.valueReference in state_vr}
+        assert {tuple(e) for e in np.argwhere(jac != 0)} == declared
+    finally:
+        instance.terminate()
+        instance.freeInstance()
+
+
+def test_casadi_imports_the_fmu_and_calls_its_binary(built, tmp_path):
+    """A second client: CasADi's DaeBuilder on the unzipped FMI 2.0 FMU (without CasADi's own serialised
+    oracle, so FmuFunction calls the binary): the double pendulum's derivatives at 100 random states
+    within 1e-12 of the contract's ode."""
+    import casadi as ca
+    cm, path = built("double_pendulum", 2)
+    folder = tmp_path / "unzipped"
+    with zipfile.ZipFile(path) as z:
+        z.extractall(folder)
+    shutil.rmtree(folder / "extra", ignore_errors=True)
+    dae = ca.DaeBuilder("dp", str(folder))
+    assert list(dae.x()) == list(cm.dae.x_names)
+    f = dae.create("f", ["x"], ["ode"])
+    assert f.class_name() == "FmuFunction"
+    ode = cm.functions()["ode"]
+    rng = np.random.default_rng(4)
+    for _ in range(100):
+        x = rng.uniform(-3, 3, cm.dae.x.numel())
+        mine = np.array(ode(0.0, x, np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0))).ravel()
+        theirs = np.array(f(x)).ravel()
+        assert np.max(np.abs(mine - theirs)) <= 1e-12 * max(1.0, np.max(np.abs(mine)))
+
+
+def _tunable_oscillator():
+    from mechnet.components import rotational as rot
+    m = mn.Model("osc")
+    fixed, spring = m.add(rot.Fixed(name="fixed")), m.add(rot.Spring(name="spring", c=mn.tunable(100.0)))
+    j = m.add(rot.Inertia(name="j", J=0.1, phi_start=0.5, w_start=0.0))
+    m.connect(fixed.flange, spring.flange_a)
+    m.connect(spring.flange_b, j.flange_a)
+    return m
+
+
+@pytest.mark.parametrize("fmi", (2, 3))
+def test_tunable_parameters_change_the_fmu_as_the_native_model(tmp_path, fmi):
+    """spring.c = 400 set through FMI: the FMU's trajectory equals the native one at the same value
+    (within 1e-6, rtol 1e-10 both) and the period halves (closed form 2π√(J/c))."""
+    cm = _tunable_oscillator().compile()
+    path = cm.export(tmp_path / f"osc{fmi}.fmu", kind="fmu", fmi=fmi)
+    T = 2 * np.pi * np.sqrt(0.1 / 400.0)
+    res = simulate_fmu(str(path), stop_time=T, relative_tolerance=1e-10, output_interval=T / 50,
+                       start_values={"spring.c": 400.0}, output=["j.phi"], fmi_type="ModelExchange")
+    native = cm.simulate(T, rtol=1e-10, atol=1e-12, params={"spring.c": 400.0}, t_out=res["time"])
+    assert np.max(np.abs(res["j.phi"] - native["j.phi"])) < 1e-6
+    assert abs(res["j.phi"][-1] - 0.5) < 1e-6
+
+
+def test_every_parameter_can_be_exposed(tmp_path):
+    """mn.every_parameter_tunable(): the inertia J, folded otherwise, becomes an FMI parameter; J = 0.4
+    doubles the period like the closed form says."""
+    from mechnet.components import rotational as rot
+    with mn.every_parameter_tunable():
+        m = mn.Model("osc_all")
+        fixed, spring = m.add(rot.Fixed(name="fixed")), m.add(rot.Spring(name="spring", c=100.0))
+        j = m.add(rot.Inertia(name="j", J=0.1, phi_start=0.5, w_start=0.0))
+        m.connect(fixed.flange, spring.flange_a)
+        m.connect(spring.flange_b, j.flange_a)
+    cm = m.compile()
+    assert {"j.J", "spring.c"} <= set(cm.dae.p_names)
+    path = cm.export(tmp_path / "all.fmu", kind="fmu")
+    names = {v.name: v for v in read_model_description(str(path)).modelVariables}
+    assert names["j.J"].causality == "parameter" and names["j.J"].variability == "tunable"
+    T = 2 * np.pi * np.sqrt(0.4 / 100.0)
+    res = simulate_fmu(str(path), stop_time=T, relative_tolerance=1e-10, output_interval=T / 50,
+                       start_values={"j.J": 0.4}, output=["j.phi"], fmi_type="ModelExchange")
+    assert abs(res["j.phi"][-1] - 0.5) < 1e-6
+
+
+def test_leaving_the_assembly_branch_is_an_error_with_its_reason(tmp_path):
+    """A Cartesian pendulum started above the horizontal: the exported states (y, vy) stop determining x
+    at the bottom (x = 0). The FMU returns an error status and logs why; it does not switch silently."""
+    cm = cartesian_pendulum(theta0=2.0).compile()
+    path = cm.export(tmp_path / "cp.fmu", kind="fmu")
+    messages = []
+    with pytest.raises(Exception):
+        simulate_fmu(str(path), stop_time=3.0, relative_tolerance=1e-8, fmi_type="ModelExchange",
+                     logger=lambda *a: messages.append(a[-1]))
+    text = " ".join(m.decode() if isinstance(m, bytes) else str(m) for m in messages)
+    assert "no longer functions of the states p.y, p.vy" in text
+
+
+def test_start_values_and_units_are_in_the_model_description(built):
+    cm, path = built("four_bar", 2)
+    md = read_model_description(str(path))
+    names = {v.name: v for v in md.modelVariables}
+    meta = cm.functions()["metadata"]
+    for s in meta["starts"]:
+        v = names[fmi_name(s["name"])]
+        assert v.initial == "exact" and float(v.start) == s["value"]
+    for v in meta["observed"]:
+        assert names[fmi_name(v["name"])].unit == v["unit"]
+    assert md.numberOfContinuousStates == len(meta["x"])
+
+
+# ---- the FMU's C API through FMPy's low-level classes (both versions)
+
+def _instance(md, path, fmi):
+    directory = extract(path)
+    if fmi == 2:
+        from fmpy.fmi2 import FMU2Model
+        fmu = FMU2Model(guid=md.guid, unzipDirectory=directory, modelIdentifier=md.modelExchange.modelIdentifier,
+                        instanceName="test")
+        fmu.instantiate()
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        fmu.newDiscreteStates()
+    else:
+        from fmpy.fmi3 import FMU3Model
+        fmu = FMU3Model(guid=md.guid, unzipDirectory=directory, modelIdentifier=md.modelExchange.modelIdentifier,
+                        instanceName="test")
+        fmu.instantiate()
+        fmu.enterInitializationMode(startTime=0.0)
+        fmu.exitInitializationMode()
+        fmu.updateDiscreteStates()
+    fmu.enterContinuousTimeMode()
+    return fmu
+
+
+def _get_states(fmu, fmi, nx):
+    buf = (ctypes.c_double * nx)()
+    fmu.getContinuousStates(buf, nx)
+    return np.array(buf)
+
+
+def _set_states(fmu, fmi, x):
+    fmu.setContinuousStates((ctypes.c_double * len(x))(*x), len(x))
+
+
+def _derivatives(fmu, fmi, nx):
+    buf = (ctypes.c_double * nx)()
+    if fmi == 2:
+        fmu.getDerivatives(buf, nx)
+    else:
+        fmu.getContinuousStateDerivatives(buf, nx)
+    return np.array(buf)
+
+
+def _directional(fmu, fmi, unknowns, knowns, seed):
+    return np.array(fmu.getDirectionalDerivative(unknowns, knowns, seed))
