@@ -248,3 +248,44 @@ def test_demo_without_a_checkout_runs_no_stranger_s_examples(tmp_path, capsys, m
     assert main(["demo", "--out", str(tmp_path / "out")]) == 2
     error = one_error_line(capsys)
     assert "--dir" in error and "stranger" not in error and "not mine" not in error
+
+
+def test_export_casadi_then_load_and_simulate(tmp_path, capsys):
+    """`mechnet export` writes a loadable model: the loaded copy simulates to the scene's own result (the
+    oscillator, 0.5 s, default tolerances: identical functions give identical numbers)."""
+    from mechnet.export import load
+    from mechnet.scene import load_scene
+    out = tmp_path / "osc"
+    assert main(["export", str(OSCILLATOR), "--kind", "casadi", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert text.startswith(f"wrote {out}") and "states" in text
+    loaded = load(out).simulate(0.5)
+    native = load_scene(OSCILLATOR).build().compile().simulate(0.5)
+    assert np.array_equal(loaded["j1.phi"], native["j1.phi"])
+
+
+def test_export_all_parameters_exposes_the_folded_ones(tmp_path, capsys):
+    import json
+    plain, every = tmp_path / "plain", tmp_path / "every"
+    assert main(["export", str(OSCILLATOR), "--kind", "casadi", "-o", str(plain)]) == 0
+    assert "folded into the equations" in capsys.readouterr().out
+    assert main(["export", str(OSCILLATOR), "--kind", "casadi", "--all-parameters", "-o", str(every)]) == 0
+    few, many = (len(json.loads((path / "model.json").read_text())["p"]) for path in (plain, every))
+    assert many > few
+
+
+def test_export_refuses_an_existing_output_unless_overwrite(tmp_path, capsys):
+    out = tmp_path / "taken"
+    out.mkdir()
+    assert main(["export", str(OSCILLATOR), "--kind", "casadi", "-o", str(out)]) == 2
+    err = one_error_line(capsys)
+    assert "taken" in err and "overwrite" in err
+    assert main(["export", str(OSCILLATOR), "--kind", "casadi", "--overwrite", "-o", str(out)]) == 0
+
+
+@pytest.mark.parametrize("args", [["--kind", "zip"], ["--fmi", "4"], []])
+def test_export_bad_options_are_usage_errors(tmp_path, args):
+    """An unknown kind or FMI version, or no -o, is argparse's usage error (status 2)."""
+    with pytest.raises(SystemExit) as exit_:
+        main(["export", str(OSCILLATOR), *args] + (["-o", str(tmp_path / "x")] if args else []))
+    assert exit_.value.code == 2

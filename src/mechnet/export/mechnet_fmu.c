@@ -18,6 +18,7 @@
 #include "model_data.h"
 
 #define EXPORT __attribute__((visibility("default")))
+#define MN_MAX_EVENT_ROUNDS 100 /* discrete-state updates at one time before the events count as chattering */
 #define MN_QUALITY_MIN 1e-3     /* conditioning below which the dependent coordinates count as singular */
 
 typedef int (*mn_eval_t)(const casadi_real**, casadi_real**, casadi_int*, casadi_real*, int);
@@ -45,6 +46,7 @@ typedef struct {
     double x[MN_NX + 1], xdot[MN_NX + 1], z[MN_NZ + 1], z_accepted[MN_NZ + 1];
     double u[MN_NU + 1], p[MN_NP + 1], d[MN_ND + 1], s[MN_NS + 1];
     double y[MN_NY + 1], g[MN_NG + 1], armed[MN_NG + 1];
+    int event_rounds;                           /* discrete-state updates since the event mode began */
     int need_z, need_xdot, need_y, need_g, need_init;
     int branch_sign;                /* sign of det(d alg / d z) on the assembly branch of the start */
     int mem[F_COUNT + MN_NT + 1];
@@ -206,7 +208,7 @@ static void accept(Instance *m) {
 
 /* the discrete-state update: every condition that crossed in its direction fires, in index order */
 static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
-    int k, st, fired = 0;
+    int k, st, fired = 0, last = 0;
     *values_changed = 0;
     *needs_more = 0;
     if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
@@ -219,9 +221,17 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
             mn_call(m, mn_transitions[k].eval, m->mem[F_COUNT + k], in, 6, out, 2);
             memcpy(m->x, x_plus, sizeof(double) * MN_NX);
             memcpy(m->d, d_plus, sizeof(double) * MN_ND);
+            m->armed[k] = rising ? 1.0 : -1.0;      /* crossed, even where the indicator stays exactly 0 */
             fired++;
+            last = k;
             if (m->logging) logf_(m, ST_OK, "logEvents", "t = %.17g: %s", m->t, mn_zero_labels[k]);
         }
+    }
+    if (fired && ++m->event_rounds > MN_MAX_EVENT_ROUNDS) {
+        logf_(m, ST_ERROR, "logStatusError", "t = %.17g: events keep firing after %d rounds of discrete-state "
+              "updates at the same time (the last: %s); the conditions chatter", m->t, MN_MAX_EVENT_ROUNDS,
+              mn_zero_labels[last]);
+        return ST_ERROR;
     }
     if (fired) {
         changed(m);
@@ -423,6 +433,7 @@ EXPORT int fmi2ExitInitializationMode(fmi2Component c) {
     if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
     arm(m);
     m->mode = MODE_EVENT;
+    m->event_rounds = 0;
     return ST_OK;
 }
 EXPORT int fmi2Terminate(fmi2Component c) { ((Instance *)c)->mode = MODE_TERMINATED; return ST_OK; }
@@ -463,7 +474,7 @@ EXPORT int fmi2DeSerializeFMUstate(fmi2Component c, const char b[], size_t n, vo
 EXPORT int fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference unknown[], size_t nu,
                                         const fmi2ValueReference known[], size_t nk, const double dv_known[], double dv_unknown[]) {
     return directional((Instance *)c, (const uint32_t *)unknown, nu, (const uint32_t *)known, nk, dv_known, dv_unknown); }
-EXPORT int fmi2EnterEventMode(fmi2Component c) { ((Instance *)c)->mode = MODE_EVENT; return ST_OK; }
+EXPORT int fmi2EnterEventMode(fmi2Component c) { ((Instance *)c)->mode = MODE_EVENT; ((Instance *)c)->event_rounds = 0; return ST_OK; }
 EXPORT int fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info) {
     Instance *m = (Instance *)c;
     int values_changed, more, st = update_discrete(m, &values_changed, &more);
@@ -557,9 +568,10 @@ EXPORT int fmi3ExitInitializationMode(fmi3Instance c) {
     if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
     arm(m);
     m->mode = MODE_EVENT;
+    m->event_rounds = 0;
     return ST_OK;
 }
-EXPORT int fmi3EnterEventMode(fmi3Instance c) { ((Instance *)c)->mode = MODE_EVENT; return ST_OK; }
+EXPORT int fmi3EnterEventMode(fmi3Instance c) { ((Instance *)c)->mode = MODE_EVENT; ((Instance *)c)->event_rounds = 0; return ST_OK; }
 EXPORT int fmi3Terminate(fmi3Instance c) { ((Instance *)c)->mode = MODE_TERMINATED; return ST_OK; }
 EXPORT int fmi3Reset(fmi3Instance c) {
     Instance *m = (Instance *)c;
