@@ -162,6 +162,15 @@ def test_generated_c_agrees_with_the_virtual_machine(tmp_path, four_bar):
                 a, b = np.array(a), np.array(b)
                 assert np.max(np.abs(a - b), initial=0) <= 1e-13 * max(1.0, np.max(np.abs(a), initial=0)), name
     assert set(lib) >= {"init", "solve_alg", "zero", "invariants"}
+    for name in ("ode", "alg"):        # the library's own Jacobian (what `external` differentiates with)
+        jac = lib[name].jacobian()
+        assert "jac_" in jac.name()
+        for args in random_args(fns[name], rng):
+            blocks = jac.call(args + [fns[name].call(args)[0]])
+            wrt = dict(zip(fns[name].name_in(), blocks))
+            for var, block in zip("xzup", fns[f"jac_{name}"].call(args)):
+                a, b = np.array(block), np.array(wrt[var])
+                assert np.max(np.abs(a - b), initial=0) <= 1e-13 * max(1.0, np.max(np.abs(a), initial=0)), name
 
 
 @needs_cc

@@ -28,6 +28,7 @@ from .model_description import fmi_variables, model_description
 
 WRAPPER = "mechnet_fmu.c"
 PLATFORM = {2: "linux64", 3: "x86_64-linux"}
+CALLED = ("init", "solve_alg", "ode", "observed", "zero", "forward", "alg_jac")   # what the wrapper calls
 
 
 def write_fmu(fns: dict, path: Path, fmi: int) -> Path:
@@ -44,7 +45,7 @@ def write_fmu(fns: dict, path: Path, fmi: int) -> Path:
         root = Path(tmp)
         sources = root / "sources"
         sources.mkdir()
-        generate_c(fns, sources, ident)
+        generate_c(fns, sources, ident, CALLED)
         (sources / "model_data.h").write_text(model_data(meta, variables, ident, len(fns["transition"])))
         shutil.copy(resources.files(__package__) / WRAPPER, sources / WRAPPER)
         (root / "modelDescription.xml").write_text(model_description(meta, variables, ident, fmi,
