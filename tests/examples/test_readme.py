@@ -33,6 +33,7 @@ def test_the_readme_blocks_run_in_order(tmp_path, monkeypatch):
     assert sorted({e.t for e in held.events if e.kind == "time"}) == [1.0, 2.0, 3.0]
     assert (tmp_path / "out.csv").read_text().startswith("time [s],")
     assert namespace["more"].t[0] == 5.0
+    assert namespace["again"]["j1.phi"].tolist() == held["j1.phi"].tolist()     # the export: same numbers
     assert list(namespace["df"].columns) == list(namespace["cm"].simulate(0.1).names)
     # the optimal-control block: minimum time over 1 m with |u| <= 1 takes 2·sqrt(1) = 2 s
     assert namespace["sol"].success and abs(namespace["sol"].t_final - 2.0) < 1e-6

@@ -125,6 +125,10 @@ def _number(value: float) -> str:
     return repr(float(value))
 
 
+LOG_CATEGORIES = (("logEvents", "each event: its time and the condition that fired"),
+                  ("logStatusError", "why a call returned an error"))
+
+
 def model_description(meta: dict, variables: list, ident: str, fmi: int, sources: list) -> str:
     names = [v["name"] for v in variables]
     convention = "structured" if all(STRUCTURED.match(n) for n in names) else "flat"
@@ -143,6 +147,8 @@ def model_description(meta: dict, variables: list, ident: str, fmi: int, sources
     else:
         lines += [f'  <ModelExchange{_attrs(modelIdentifier=ident, canGetAndSetFMUState="false", providesDirectionalDerivatives="true", needsCompletedIntegratorStep="true")}/>']
     lines += ["  <UnitDefinitions>", *[f"    <Unit{_attrs(name=u)}/>" for u in units], "  </UnitDefinitions>"]
+    lines += ["  <LogCategories>", *[f"    <Category{_attrs(name=n, description=d)}/>" for n, d in LOG_CATEGORIES],
+              "  </LogCategories>"]
     lines += ["  <ModelVariables>"]
     if fmi == 3:
         lines.append('    <Float64 name="time" valueReference="0" causality="independent" variability="continuous"/>')
