@@ -329,3 +329,22 @@ def test_events_that_never_settle_are_an_error_naming_the_condition(tmp_path):
         simulate_fmu(str(path), stop_time=2.0, fmi_type="ModelExchange", logger=lambda *a: messages.append(a[-1]))
     text = " ".join(m.decode() if isinstance(m, bytes) else str(m) for m in messages)
     assert "t = 1: events keep firing after 100 rounds" in text and "toggle (_Toggle), event 1" in text
+
+
+@pytest.mark.parametrize("fmi", (2, 3))
+def test_vectors_of_the_wrong_length_are_refused(built, fmi):
+    """An importer passing more or fewer states than the model has gets an error status, not a write past
+    the FMU's arrays."""
+    cm, path = built("double_pendulum", fmi)
+    md = read_model_description(str(path))
+    instance = _instance(md, str(path), fmi)
+    try:
+        nx = md.numberOfContinuousStates
+        with pytest.raises(Exception, match="status 3"):
+            _set_states(instance, fmi, np.zeros(nx + 1))
+        with pytest.raises(Exception, match="status 3"):
+            _derivatives(instance, fmi, nx - 1)
+        assert np.all(np.isfinite(_derivatives(instance, fmi, nx)))     # the instance still works
+    finally:
+        instance.terminate()
+        instance.freeInstance()

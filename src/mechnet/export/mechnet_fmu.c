@@ -373,6 +373,67 @@ static int directional(Instance *m, const uint32_t *unknown, size_t nu, const ui
     return ST_OK;
 }
 
+
+static void logf_(Instance *m, int status, const char *category, const char *fmt, ...);
+
+/* ---------------------------------------------------------------- what both FMI versions do alike */
+static int exit_init(Instance *m) {
+    int st = ensure_init(m);
+    if (st != ST_OK) return st;
+    if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
+    arm(m);
+    m->mode = MODE_EVENT;
+    m->event_rounds = 0;
+    return ST_OK;
+}
+
+static int enter_event_mode(Instance *m) { m->mode = MODE_EVENT; m->event_rounds = 0; return ST_OK; }
+
+static int reset(Instance *m) {
+    memcpy(m->u, mn_u_default, sizeof(double) * MN_NU);
+    memcpy(m->p, mn_p_default, sizeof(double) * MN_NP);
+    memcpy(m->d, mn_d_default, sizeof(double) * MN_ND);
+    memcpy(m->s, mn_s_default, sizeof(double) * MN_NS);
+    m->t = 0; m->need_init = 1; changed(m); m->mode = MODE_INSTANTIATED;
+    return ST_OK;
+}
+
+static int completed_step(Instance *m) {
+    int st = ensure_z(m);
+    if (st == ST_OK) accept(m);
+    return st;
+}
+
+static int set_time(Instance *m, double t) { m->t = t; changed(m); return ST_OK; }
+
+/* a vector the importer passes: its length must be the model's */
+static int sized(Instance *m, const char *what, size_t n, size_t expected) {
+    if (n == expected) return ST_OK;
+    logf_(m, ST_ERROR, "logStatusError", "%s: %lu values given, the model has %lu", what, (unsigned long)n,
+          (unsigned long)expected);
+    return ST_ERROR;
+}
+
+static int set_states(Instance *m, const double *x, size_t n) {
+    if (sized(m, "set continuous states", n, MN_NX) != ST_OK) return ST_ERROR;
+    memcpy(m->x, x, sizeof(double) * n);
+    changed(m);
+    return ST_OK;
+}
+
+static int get_vector(Instance *m, const char *what, int *need, int f, double *source, double *target, size_t n,
+                      size_t expected) {
+    int st = sized(m, what, n, expected);
+    if (st == ST_OK && need) st = ensure(m, need, f, source);
+    if (st == ST_OK && !need && source == m->x) st = ensure_init(m);
+    if (st == ST_OK) memcpy(target, source, sizeof(double) * n);
+    return st;
+}
+#define GET_DERIVATIVES(m, v, n) get_vector(m, "get derivatives", &(m)->need_xdot, F_ODE, (m)->xdot, v, n, MN_NX)
+#define GET_INDICATORS(m, v, n) get_vector(m, "get event indicators", &(m)->need_g, F_ZERO, (m)->g, v, n, MN_NG)
+#define GET_STATES(m, v, n) get_vector(m, "get continuous states", NULL, 0, (m)->x, v, n, MN_NX)
+#define GET_NOMINALS(m, v, n) get_vector(m, "get nominals", NULL, 0, (double *)mn_x_nominal, v, n, MN_NX)
+
 #if FMI_VERSION == 2
 /* ---------------------------------------------------------------- FMI 2.0 Model Exchange */
 typedef void *fmi2Component;
@@ -426,26 +487,9 @@ EXPORT void fmi2FreeInstance(fmi2Component c) { destroy((Instance *)c); }
 EXPORT int fmi2SetupExperiment(fmi2Component c, fmi2Boolean tolDefined, double tol, double start, fmi2Boolean stopDefined, double stop) {
     (void)tolDefined; (void)tol; (void)stopDefined; (void)stop; ((Instance *)c)->t = start; return ST_OK; }
 EXPORT int fmi2EnterInitializationMode(fmi2Component c) { ((Instance *)c)->mode = MODE_INIT; return ST_OK; }
-EXPORT int fmi2ExitInitializationMode(fmi2Component c) {
-    Instance *m = (Instance *)c;
-    int st = ensure_init(m);
-    if (st != ST_OK) return st;
-    if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
-    arm(m);
-    m->mode = MODE_EVENT;
-    m->event_rounds = 0;
-    return ST_OK;
-}
+EXPORT int fmi2ExitInitializationMode(fmi2Component c) { return exit_init((Instance *)c); }
 EXPORT int fmi2Terminate(fmi2Component c) { ((Instance *)c)->mode = MODE_TERMINATED; return ST_OK; }
-EXPORT int fmi2Reset(fmi2Component c) {
-    Instance *m = (Instance *)c;
-    memcpy(m->u, mn_u_default, sizeof(double) * MN_NU);
-    memcpy(m->p, mn_p_default, sizeof(double) * MN_NP);
-    memcpy(m->d, mn_d_default, sizeof(double) * MN_ND);
-    memcpy(m->s, mn_s_default, sizeof(double) * MN_NS);
-    m->t = 0; m->need_init = 1; changed(m); m->mode = MODE_INSTANTIATED;
-    return ST_OK;
-}
+EXPORT int fmi2Reset(fmi2Component c) { return reset((Instance *)c); }
 EXPORT int fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, double value[]) {
     return get_real((Instance *)c, (const uint32_t *)vr, n, value); }
 EXPORT int fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const double value[]) {
@@ -474,7 +518,7 @@ EXPORT int fmi2DeSerializeFMUstate(fmi2Component c, const char b[], size_t n, vo
 EXPORT int fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference unknown[], size_t nu,
                                         const fmi2ValueReference known[], size_t nk, const double dv_known[], double dv_unknown[]) {
     return directional((Instance *)c, (const uint32_t *)unknown, nu, (const uint32_t *)known, nk, dv_known, dv_unknown); }
-EXPORT int fmi2EnterEventMode(fmi2Component c) { ((Instance *)c)->mode = MODE_EVENT; ((Instance *)c)->event_rounds = 0; return ST_OK; }
+EXPORT int fmi2EnterEventMode(fmi2Component c) { return enter_event_mode((Instance *)c); }
 EXPORT int fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info) {
     Instance *m = (Instance *)c;
     int values_changed, more, st = update_discrete(m, &values_changed, &more);
@@ -487,36 +531,14 @@ EXPORT int fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info) {
 }
 EXPORT int fmi2EnterContinuousTimeMode(fmi2Component c) { ((Instance *)c)->mode = MODE_CONTINUOUS; return ST_OK; }
 EXPORT int fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetPrior, fmi2Boolean *enterEventMode, fmi2Boolean *terminate) {
-    Instance *m = (Instance *)c;
-    int st = ensure_z(m);
-    (void)noSetPrior;
-    *enterEventMode = 0; *terminate = 0;
-    if (st == ST_OK) accept(m);
-    return st;
-}
-EXPORT int fmi2SetTime(fmi2Component c, double t) { Instance *m = (Instance *)c; m->t = t; changed(m); return ST_OK; }
-EXPORT int fmi2SetContinuousStates(fmi2Component c, const double x[], size_t n) {
-    Instance *m = (Instance *)c; memcpy(m->x, x, sizeof(double) * n); changed(m); return ST_OK; }
-EXPORT int fmi2GetDerivatives(fmi2Component c, double xdot[], size_t n) {
-    Instance *m = (Instance *)c;
-    int st = ensure(m, &m->need_xdot, F_ODE, m->xdot);
-    memcpy(xdot, m->xdot, sizeof(double) * n);
-    return st;
-}
-EXPORT int fmi2GetEventIndicators(fmi2Component c, double g[], size_t n) {
-    Instance *m = (Instance *)c;
-    int st = ensure(m, &m->need_g, F_ZERO, m->g);
-    memcpy(g, m->g, sizeof(double) * n);
-    return st;
-}
-EXPORT int fmi2GetContinuousStates(fmi2Component c, double x[], size_t n) {
-    Instance *m = (Instance *)c;
-    int st = ensure_init(m);
-    memcpy(x, m->x, sizeof(double) * n);
-    return st;
-}
+    (void)noSetPrior; *enterEventMode = 0; *terminate = 0; return completed_step((Instance *)c); }
+EXPORT int fmi2SetTime(fmi2Component c, double t) { return set_time((Instance *)c, t); }
+EXPORT int fmi2SetContinuousStates(fmi2Component c, const double x[], size_t n) { return set_states((Instance *)c, x, n); }
+EXPORT int fmi2GetDerivatives(fmi2Component c, double xdot[], size_t n) { return GET_DERIVATIVES((Instance *)c, xdot, n); }
+EXPORT int fmi2GetEventIndicators(fmi2Component c, double g[], size_t n) { return GET_INDICATORS((Instance *)c, g, n); }
+EXPORT int fmi2GetContinuousStates(fmi2Component c, double x[], size_t n) { return GET_STATES((Instance *)c, x, n); }
 EXPORT int fmi2GetNominalsOfContinuousStates(fmi2Component c, double nominal[], size_t n) {
-    (void)c; memcpy(nominal, mn_x_nominal, sizeof(double) * n); return ST_OK; }
+    return GET_NOMINALS((Instance *)c, nominal, n); }
 
 #else
 /* ---------------------------------------------------------------- FMI 3.0 Model Exchange */
@@ -561,27 +583,10 @@ EXPORT int fmi3EnterInitializationMode(fmi3Instance c, bool tolDefined, double t
     Instance *m = (Instance *)c;
     (void)tolDefined; (void)tol; (void)stopDefined; (void)stop;
     m->t = start; m->mode = MODE_INIT; m->need_init = 1; return ST_OK; }
-EXPORT int fmi3ExitInitializationMode(fmi3Instance c) {
-    Instance *m = (Instance *)c;
-    int st = ensure_init(m);
-    if (st != ST_OK) return st;
-    if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
-    arm(m);
-    m->mode = MODE_EVENT;
-    m->event_rounds = 0;
-    return ST_OK;
-}
-EXPORT int fmi3EnterEventMode(fmi3Instance c) { ((Instance *)c)->mode = MODE_EVENT; ((Instance *)c)->event_rounds = 0; return ST_OK; }
+EXPORT int fmi3ExitInitializationMode(fmi3Instance c) { return exit_init((Instance *)c); }
+EXPORT int fmi3EnterEventMode(fmi3Instance c) { return enter_event_mode((Instance *)c); }
 EXPORT int fmi3Terminate(fmi3Instance c) { ((Instance *)c)->mode = MODE_TERMINATED; return ST_OK; }
-EXPORT int fmi3Reset(fmi3Instance c) {
-    Instance *m = (Instance *)c;
-    memcpy(m->u, mn_u_default, sizeof(double) * MN_NU);
-    memcpy(m->p, mn_p_default, sizeof(double) * MN_NP);
-    memcpy(m->d, mn_d_default, sizeof(double) * MN_ND);
-    memcpy(m->s, mn_s_default, sizeof(double) * MN_NS);
-    m->t = 0; m->need_init = 1; changed(m); m->mode = MODE_INSTANTIATED;
-    return ST_OK;
-}
+EXPORT int fmi3Reset(fmi3Instance c) { return reset((Instance *)c); }
 EXPORT int fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, double v[], size_t nv) {
     (void)nv; return get_real((Instance *)c, vr, n, v); }
 EXPORT int fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const double v[], size_t nv) {
@@ -656,36 +661,14 @@ EXPORT int fmi3UpdateDiscreteStates(fmi3Instance c, bool *needUpdate, bool *term
 }
 EXPORT int fmi3EnterContinuousTimeMode(fmi3Instance c) { ((Instance *)c)->mode = MODE_CONTINUOUS; return ST_OK; }
 EXPORT int fmi3CompletedIntegratorStep(fmi3Instance c, bool noSetPrior, bool *enterEventMode, bool *terminate) {
-    Instance *m = (Instance *)c;
-    int st = ensure_z(m);
-    (void)noSetPrior;
-    *enterEventMode = false; *terminate = false;
-    if (st == ST_OK) accept(m);
-    return st;
-}
-EXPORT int fmi3SetTime(fmi3Instance c, double t) { Instance *m = (Instance *)c; m->t = t; changed(m); return ST_OK; }
-EXPORT int fmi3SetContinuousStates(fmi3Instance c, const double x[], size_t n) {
-    Instance *m = (Instance *)c; memcpy(m->x, x, sizeof(double) * n); changed(m); return ST_OK; }
-EXPORT int fmi3GetContinuousStateDerivatives(fmi3Instance c, double xdot[], size_t n) {
-    Instance *m = (Instance *)c;
-    int st = ensure(m, &m->need_xdot, F_ODE, m->xdot);
-    memcpy(xdot, m->xdot, sizeof(double) * n);
-    return st;
-}
-EXPORT int fmi3GetEventIndicators(fmi3Instance c, double g[], size_t n) {
-    Instance *m = (Instance *)c;
-    int st = ensure(m, &m->need_g, F_ZERO, m->g);
-    memcpy(g, m->g, sizeof(double) * n);
-    return st;
-}
-EXPORT int fmi3GetContinuousStates(fmi3Instance c, double x[], size_t n) {
-    Instance *m = (Instance *)c;
-    int st = ensure_init(m);
-    memcpy(x, m->x, sizeof(double) * n);
-    return st;
-}
+    (void)noSetPrior; *enterEventMode = false; *terminate = false; return completed_step((Instance *)c); }
+EXPORT int fmi3SetTime(fmi3Instance c, double t) { return set_time((Instance *)c, t); }
+EXPORT int fmi3SetContinuousStates(fmi3Instance c, const double x[], size_t n) { return set_states((Instance *)c, x, n); }
+EXPORT int fmi3GetContinuousStateDerivatives(fmi3Instance c, double xdot[], size_t n) { return GET_DERIVATIVES((Instance *)c, xdot, n); }
+EXPORT int fmi3GetEventIndicators(fmi3Instance c, double g[], size_t n) { return GET_INDICATORS((Instance *)c, g, n); }
+EXPORT int fmi3GetContinuousStates(fmi3Instance c, double x[], size_t n) { return GET_STATES((Instance *)c, x, n); }
 EXPORT int fmi3GetNominalsOfContinuousStates(fmi3Instance c, double nominal[], size_t n) {
-    (void)c; memcpy(nominal, mn_x_nominal, sizeof(double) * n); return ST_OK; }
+    return GET_NOMINALS((Instance *)c, nominal, n); }
 EXPORT int fmi3GetNumberOfEventIndicators(fmi3Instance c, size_t *n) { (void)c; *n = MN_NG; return ST_OK; }
 EXPORT int fmi3GetNumberOfContinuousStates(fmi3Instance c, size_t *n) { (void)c; *n = MN_NX; return ST_OK; }
 EXPORT int fmi3GetOutputDerivatives(fmi3Instance c, const fmi3ValueReference a[], size_t b, const int d[], double e[], size_t f) {
