@@ -363,3 +363,25 @@ def relay_inertia(J=0.5, w0=2.0, tau_on=-1.0, phi_on=1.0, phi_off=0.5, c=0.0, na
         m.connect(fixed.flange, spring.flange_a)
         m.connect(spring.flange_b, j1.flange_b)
     return m
+
+
+class Cascade(mn.Component):
+    """x grows at 1 m/s; at x = 1 the first condition sets mode a, and a's jump makes the second
+    condition cross at the same instant and set mode b: event iteration through a mode."""
+
+    x = mn.Var(unit="m")
+    a = mn.Mode(0.0, doc="set when x reaches 1")
+    b = mn.Mode(0.0, doc="set when a is set")
+
+    def equations(self):
+        return [mn.Eq(mn.der(self.x), 1.0)]
+
+    def events(self):
+        return [mn.When(self.x - 1.0, reset={self.a: 1.0}, direction="rising", doc="first"),
+                mn.When(self.a - 0.5, reset={self.b: 1.0}, direction="rising", doc="second")]
+
+
+def cascade(x0=0.3) -> mn.Model:
+    m = mn.Model("cascade")
+    m.add(Cascade(name="c", x_start=x0))
+    return m

@@ -31,6 +31,22 @@ SCENES = {
 }
 
 
+def _quiet(*args):
+    pass
+
+
+def _permanent_callbacks():
+    from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(_quiet)
+    return callbacks
+
+
+# FMPy's default FMI 2.0 callbacks format messages through one native proxy that points at the logger
+# last given to simulate_fmu(logger=...), which dies with that call: instances made here log to this one
+_PERMANENT_CALLBACKS = _permanent_callbacks()
+
+
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     """(compiled model, FMU path) per (scene, FMI version), built once for the module."""
@@ -236,7 +252,7 @@ def _instance(md, path, fmi):
         from fmpy.fmi2 import FMU2Model
         fmu = FMU2Model(guid=md.guid, unzipDirectory=directory, modelIdentifier=md.modelExchange.modelIdentifier,
                         instanceName="test")
-        fmu.instantiate()
+        fmu.instantiate(callbacks=_PERMANENT_CALLBACKS)   # not FMPy's default, whose proxy may point at freed memory
         fmu.setupExperiment(startTime=0.0)
         fmu.enterInitializationMode()
         fmu.exitInitializationMode()
@@ -302,33 +318,39 @@ def test_modes_are_discrete_variables_switched_at_events(tmp_path, fmi):
     assert set(np.unique(res["relay.on"])) == {0.0, 1.0}
 
 
-class _Toggle(mn.Component):
-    """x grows at 1 m/s; at x = 1 a mode flips the sign of its own condition, so each reset makes the
-    condition cross again at the same instant: events that never settle."""
+class _Chatter(mn.Component):
+    """x grows at 1 m/s; at x = 1 mode m is set, which throws `drop` across (it clears m), which throws
+    `raise` across (it sets m again), and so on: resets that make each other fire without end."""
 
     x = mn.Var(unit="m")
-    on = mn.Mode(0.0)
+    m = mn.Mode(0.0)
 
     def equations(self):
         return [mn.Eq(mn.der(self.x), 1.0)]
 
     def events(self):
-        return [mn.When((self.x - 1.0) * (1 - 2 * self.on), reset={self.on: 1 - self.on}, direction="both",
-                        doc="toggle")]
+        return [mn.When(self.x - 1.0, reset={self.m: 1.0}, direction="rising", doc="start"),
+                mn.When(self.m - 0.5, reset={self.m: 0.0}, direction="rising", doc="drop"),
+                mn.When(0.5 - self.m, reset={self.m: 1.0}, direction="rising", doc="raise")]
 
 
 @pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 def test_events_that_never_settle_are_an_error_naming_the_condition(tmp_path):
     """The FMU iterates its discrete-state update while conditions fire (FMI's event iteration); after 100
-    rounds at one time it returns an error whose log names the component and the condition."""
-    m = mn.Model("chatter")
-    m.add(_Toggle(name="toggle", x_start=0.0))
-    path = m.compile().export(tmp_path / "chatter.fmu", kind="fmu")
+    rounds at one time it returns an error whose log names the component and a condition. The native
+    run stops there too (x reaches 1 at t = 0.7 s), with an event accumulation, keeping the result so far."""
+    model = mn.Model("chatter")
+    model.add(_Chatter(name="chatter", x_start=0.3))
+    cm = model.compile()
+    with pytest.warns(mn.IntegrationWarning, match="event accumulation"):
+        native = cm.simulate(2.0)
+    assert native.failure is not None and "event accumulation at t = 0.7 s" in str(native.failure)
+    path = cm.export(tmp_path / "chatter.fmu", kind="fmu")
     messages = []
     with pytest.raises(Exception, match="status 3"):
         simulate_fmu(str(path), stop_time=2.0, fmi_type="ModelExchange", logger=lambda *a: messages.append(a[-1]))
     text = " ".join(m.decode() if isinstance(m, bytes) else str(m) for m in messages)
-    assert "t = 1: events keep firing after 100 rounds" in text and "toggle (_Toggle), event 1" in text
+    assert "events keep firing after 100 rounds" in text and "chatter (_Chatter), event" in text
 
 
 @pytest.mark.parametrize("fmi", (2, 3))
@@ -348,3 +370,78 @@ def test_vectors_of_the_wrong_length_are_refused(built, fmi):
     finally:
         instance.terminate()
         instance.freeInstance()
+
+
+@pytest.mark.parametrize("fmi", (2, 3))
+def test_event_iteration_fires_a_condition_a_reset_threw_across(tmp_path, fmi):
+    """tests/models.py Cascade: mode a set at x = 1 makes the second condition cross at the same instant;
+    FMPy's run ends with both modes set, as the native run does, and both switch at t = 0.7 s (within
+    1e-6 s: CVode's event location at its default tolerance)."""
+    from models import cascade
+    cm = cascade().compile()
+    path = cm.export(tmp_path / f"cascade{fmi}.fmu", kind="fmu", fmi=fmi)
+    res = simulate_fmu(str(path), stop_time=2.0, fmi_type="ModelExchange", output=["c.a", "c.b"])
+    native = cm.simulate(2.0)
+    assert res["c.a"][-1] == native["c.a"][-1] == 1.0 and res["c.b"][-1] == native["c.b"][-1] == 1.0
+    t = res["time"]
+    for mode in ("c.a", "c.b"):
+        assert abs(t[1:][np.diff(res[mode]) != 0][0] - 0.7) < 1e-6
+
+
+class _StartOnOutput(mn.Component):
+    """der(x) = -x with an output y = x + u whose start value is fixed: x(0) = 1 - u depends on the input."""
+
+    u = mn.Input(unit="1")
+    x = mn.Var(unit="1")
+    y = mn.Output(unit="1")
+
+    def equations(self):
+        return [mn.Eq(mn.der(self.x), -self.x), mn.Eq(self.y, self.x + self.u)]
+
+
+def test_an_input_set_in_initialisation_mode_redoes_the_start(tmp_path):
+    """Read in initialisation mode, then set the input, then read again (what a master's initialisation
+    loop does): the start is solved again with the new input, x(0) = y_start - u = 0.5, as natively."""
+    from fmpy.fmi2 import FMU2Model
+    m = mn.Model("start_on_output")
+    m.add(_StartOnOutput(name="c", y_start=1.0))
+    cm = m.compile()
+    assert abs(cm.simulate(0.1, inputs={"c.u": 0.5})["c.x"][0] - 0.5) < 1e-12
+    path = cm.export(tmp_path / "initu.fmu", kind="fmu")
+    md = read_model_description(str(path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    fmu = FMU2Model(guid=md.guid, unzipDirectory=extract(str(path)), modelIdentifier=md.modelExchange.modelIdentifier,
+                    instanceName="initu")
+    fmu.instantiate(callbacks=_PERMANENT_CALLBACKS)
+    try:
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        assert abs(fmu.getReal([vr["c.x"]])[0] - 1.0) < 1e-12          # with u at its default 0
+        fmu.setReal([vr["c.u"]], [0.5])
+        x, y = fmu.getReal([vr["c.x"], vr["c.y"]])
+        assert abs(x - 0.5) < 1e-12 and abs(y - 1.0) < 1e-12
+        fmu.exitInitializationMode()
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
+
+
+def test_initial_unknowns_depend_on_the_modes_they_start_from(tmp_path):
+    """The relay's torque is on·tau_on: at the start, der(j1.w) depends on the mode relay.on (an exact
+    start value the importer may set), and ModelStructure says so."""
+    from models import relay_inertia
+    path = relay_inertia().compile().export(tmp_path / "relay.fmu", kind="fmu")
+    md = read_model_description(str(path))
+    on = next(v for v in md.modelVariables if v.name == "relay.on")
+    der_w = next(u for u in md.initialUnknowns if u.variable.name == "der(j1.w)")
+    assert on in der_w.dependencies
+
+
+def test_fmus_are_refused_off_linux_x86_64(tmp_path, monkeypatch):
+    """The binary inside is built for linux64 / x86_64-linux; elsewhere the export says so instead of
+    mislabelling it."""
+    import platform
+    monkeypatch.setattr(platform, "machine", lambda: "aarch64")
+    cm = _tunable_oscillator().compile()
+    with pytest.raises(mn.MechnetError, match="Linux on x86_64 only.*aarch64.*kind='c' or 'casadi'"):
+        cm.export(tmp_path / "osc.fmu", kind="fmu")

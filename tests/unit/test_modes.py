@@ -99,3 +99,15 @@ def test_a_non_scalar_mode_reset_is_refused_naming_the_component():
     m.connect(relay.flange, j1.flange_a)
     with pytest.raises(mn.StructureError, match=r"relay \(BadRelay\), event 1: the new value of relay.on must be a scalar"):
         m.compile()
+
+
+def test_a_reset_that_makes_another_condition_cross_fires_it_at_the_same_instant():
+    """tests/models.py Cascade: x reaches 1 at t = 0.7 s (x0 = 0.3, speed 1); mode a is set there, and its
+    jump makes the second condition cross, which sets b at the same instant. Exactly those two events,
+    and the run goes on to 2 s (default tolerances; event time within 1e-9 s of the closed form)."""
+    from models import cascade
+    res = cascade().compile().simulate(2.0)
+    assert res.failure is None and res.t[-1] == 2.0
+    assert [e.cause.split("— ")[-1] for e in res.events] == ["first", "second"]
+    assert all(abs(e.t - 0.7) < 1e-9 for e in res.events)
+    assert res["c.a"][-1] == 1.0 and res["c.b"][-1] == 1.0

@@ -134,8 +134,8 @@ def _init(dae):
 
 
 def _init_dependencies(dae, w, knowns, res) -> dict:
-    """Which start values s, inputs u and parameters p each state, derivative and observed value
-    depends on at the start (FMI's initial unknowns): structural, through the initial system solved as
+    """Which start values s, inputs u, parameters p and modes d each state, derivative and observed
+    value depends on at the start (FMI's initial unknowns): structural, through the initial system solved as
     an implicit function (`dependencies`)."""
     t, u, p, d, fixed = (ca.MX.sym(n, a.numel()) for n, a in zip("tupds", knowns))
     nx_ = dae.x.numel()
@@ -147,7 +147,7 @@ def _init_dependencies(dae, w, knowns, res) -> dict:
     x, z = w_of[:nx_], w_of[nx_:]
     exprs = {"x": x, "xdot": dae.ode(t, x, z, u, p, d), "y": dae.observed(t, x, z, u, p, d)}
     return {f"init_{name}_{k}": _pattern(ca.jacobian_sparsity(e, v)) if e.numel() and v.numel() else []
-            for name, e in exprs.items() for k, v in (("s", fixed), ("u", u), ("p", p))}
+            for name, e in exprs.items() for k, v in (("s", fixed), ("u", u), ("p", p), ("d", d))}
 
 
 def _pattern(sp: ca.Sparsity) -> list:

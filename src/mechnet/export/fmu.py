@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import platform
 import shutil
 import tempfile
 import zipfile
@@ -34,6 +35,9 @@ CALLED = ("init", "solve_alg", "ode", "observed", "zero", "forward", "alg_jac") 
 def write_fmu(fns: dict, path: Path, fmi: int) -> Path:
     if fmi not in (2, 3):
         raise ExportError(f"export(fmi={fmi!r}): FMI version must be 2 or 3")
+    if (platform.system(), platform.machine()) != ("Linux", "x86_64"):
+        raise ExportError(f"export(kind='fmu'): FMUs are built for Linux on x86_64 only, and this is "
+                          f"{platform.system()} on {platform.machine()}; kind='c' or 'casadi' work here")
     if path.suffix != ".fmu":
         raise ExportError(f"export(kind='fmu'): the path {path} must end in .fmu")
     meta = _record(fns, "fmu", {})
@@ -46,7 +50,7 @@ def write_fmu(fns: dict, path: Path, fmi: int) -> Path:
         sources = root / "sources"
         sources.mkdir()
         generate_c(fns, sources, ident, CALLED)
-        (sources / "model_data.h").write_text(model_data(meta, variables, ident, len(fns["transition"])))
+        (sources / "model_data.h").write_text(model_data(meta, variables, ident, len(fns["transition"]), fmi))
         shutil.copy(resources.files(__package__) / WRAPPER, sources / WRAPPER)
         (root / "modelDescription.xml").write_text(model_description(meta, variables, ident, fmi,
                                                                      [f"{ident}.c", WRAPPER]))
@@ -82,7 +86,7 @@ def _c_string(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ") + '"'
 
 
-def model_data(meta: dict, variables: list, ident: str, n_transitions: int) -> str:
+def model_data(meta: dict, variables: list, ident: str, n_transitions: int, fmi: int) -> str:
     """model_data.h: sizes, defaults and the value-reference tables the wrapper reads."""
     n_var = len(variables)
     kind, index, setter, set_index, known, known_index = ([0] * (n_var + 1) for _ in range(6))
@@ -96,6 +100,8 @@ def model_data(meta: dict, variables: list, ident: str, n_transitions: int) -> s
              "NT": n_transitions, "NTE": len(meta["time_events"]), "NVAR": n_var}
     guesses = meta["guesses"]
     lines = [f"/* {meta['name']}: the tables of mechnet_fmu.c, written by mechnet.export.fmu */",
+             f"#ifndef FMI_VERSION  /* the FMI API the sources build: FMI 2.0 has no build description */",
+             f"#define FMI_VERSION {fmi}", "#endif",
              f'#include "{ident}.h"',
              f"#define MN_PREFIXED(name) {ident}_##name",
              f"#define MN_GUID {_c_string(meta['guid'])}",

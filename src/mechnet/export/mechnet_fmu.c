@@ -47,6 +47,7 @@ typedef struct {
     double u[MN_NU + 1], p[MN_NP + 1], d[MN_ND + 1], s[MN_NS + 1];
     double y[MN_NY + 1], g[MN_NG + 1], armed[MN_NG + 1];
     int event_rounds;                           /* discrete-state updates since the event mode began */
+    unsigned char fired_now[MN_NG + 1];         /* conditions fired since the event mode began */
     int need_z, need_xdot, need_y, need_g, need_init;
     int branch_sign;                /* sign of det(d alg / d z) on the assembly branch of the start */
     int mem[F_COUNT + MN_NT + 1];
@@ -206,22 +207,41 @@ static void accept(Instance *m) {
     for (k = 0; k < MN_NZ; k++) m->z_accepted[k] = m->z[k];
 }
 
-/* the discrete-state update: every condition that crossed in its direction fires, in index order */
+/* which way condition k crossed since it was last armed: 1 rising, -1 falling, 0 not. Reaching 0 counts
+ * (an integrator's located root may be exactly 0), except for a condition that already fired at this
+ * instant: its own reset may leave it at 0, so it fires again only when it strictly crosses */
+static int crossing(const Instance *m, int k) {
+    double g = m->g[k];
+    int strict = m->fired_now[k];
+    if (m->armed[k] < 0 && (strict ? g > 0 : g >= 0)) return 1;
+    if (m->armed[k] > 0 && (strict ? g < 0 : g <= 0)) return -1;
+    return 0;
+}
+
+/* the discrete-state update (one round of FMI's event iteration): every condition that crossed in its
+ * direction since it was armed fires, in index order, and takes the side its reset leaves it on (its own
+ * reset does not make it fire again, as in cm.simulate). One that crossed the other way is re-armed on
+ * its new side. The others keep their side, so the next round sees a condition these resets threw
+ * across (a cascade). A round that fires nothing arms every condition on its present side. */
 static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
     int k, st, fired = 0, last = 0;
+    signed char direction[MN_NG + 1];
     *values_changed = 0;
     *needs_more = 0;
     if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
     for (k = 0; k < MN_NG; k++) {
-        int falling = m->armed[k] > 0 && m->g[k] <= 0, rising = m->armed[k] < 0 && m->g[k] >= 0;
-        if ((falling && mn_zero_direction[k] <= 0) || (rising && mn_zero_direction[k] >= 0)) {
+        int c = crossing(m, k);
+        direction[k] = 0;
+        if (c != 0 && mn_zero_direction[k] != 0 && mn_zero_direction[k] != c) m->armed[k] = c;
+        else if (c != 0) {
             double x_plus[MN_NX + 1], d_plus[MN_ND + 1];
             const double *in[6] = {&m->t, m->x, m->z, m->u, m->p, m->d};
             double *out[2] = {x_plus, d_plus};
             mn_call(m, mn_transitions[k].eval, m->mem[F_COUNT + k], in, 6, out, 2);
             memcpy(m->x, x_plus, sizeof(double) * MN_NX);
             memcpy(m->d, d_plus, sizeof(double) * MN_ND);
-            m->armed[k] = rising ? 1.0 : -1.0;      /* crossed, even where the indicator stays exactly 0 */
+            direction[k] = (signed char)c;
+            m->fired_now[k] = 1;
             fired++;
             last = k;
             if (m->logging) logf_(m, ST_OK, "logEvents", "t = %.17g: %s", m->t, mn_zero_labels[k]);
@@ -239,6 +259,9 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
         *needs_more = 1;                        /* another round: a reset may make another condition cross */
         if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
         accept(m);
+        for (k = 0; k < MN_NG; k++)             /* exactly at 0 after its reset: it has crossed */
+            if (direction[k]) m->armed[k] = m->g[k] > 0 ? 1.0 : (m->g[k] < 0 ? -1.0 : direction[k]);
+        return ST_OK;
     }
     arm(m);
     return ST_OK;
@@ -319,7 +342,7 @@ static int set_real(Instance *m, const uint32_t *vr, size_t n, const double *val
         int where = r <= MN_NVAR ? mn_vr_set[r] : -1, k = r <= MN_NVAR ? mn_vr_set_index[r] : 0;
         int before_init = m->mode == MODE_INSTANTIATED || m->mode == MODE_INIT;
         if (where == 1 && before_init) { m->s[k] = value[i]; m->need_init = 1; }
-        else if (where == 2) { m->u[k] = value[i]; }
+        else if (where == 2) { m->u[k] = value[i]; if (before_init) m->need_init = 1; }
         else if (where == 3 && (before_init || m->mode == MODE_EVENT)) { m->p[k] = value[i]; if (before_init) m->need_init = 1; }
         else if (where == 4 && before_init) { m->d[k] = value[i]; m->need_init = 1; }
         else if (!before_init && r <= MN_NVAR && mn_vr_known[r] == 1) {
@@ -329,6 +352,7 @@ static int set_real(Instance *m, const uint32_t *vr, size_t n, const double *val
             logf_(m, ST_ERROR, "logStatusError", "variable with value reference %u cannot be set %s", r,
                   before_init ? "(it is calculated)" : "after initialisation (only inputs, and tunable parameters in "
                   "event mode)");
+            if (i) changed(m);                  /* the values before it were taken */
             return ST_ERROR;
         }
     }
@@ -377,17 +401,20 @@ static int directional(Instance *m, const uint32_t *unknown, size_t nu, const ui
 static void logf_(Instance *m, int status, const char *category, const char *fmt, ...);
 
 /* ---------------------------------------------------------------- what both FMI versions do alike */
+static int enter_event_mode(Instance *m) {
+    m->mode = MODE_EVENT;
+    m->event_rounds = 0;
+    memset(m->fired_now, 0, sizeof m->fired_now);
+    return ST_OK;
+}
+
 static int exit_init(Instance *m) {
     int st = ensure_init(m);
     if (st != ST_OK) return st;
     if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
     arm(m);
-    m->mode = MODE_EVENT;
-    m->event_rounds = 0;
-    return ST_OK;
+    return enter_event_mode(m);
 }
-
-static int enter_event_mode(Instance *m) { m->mode = MODE_EVENT; m->event_rounds = 0; return ST_OK; }
 
 static int reset(Instance *m) {
     memcpy(m->u, mn_u_default, sizeof(double) * MN_NU);

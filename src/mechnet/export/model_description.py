@@ -87,6 +87,7 @@ def model_structure(meta: dict, variables: list) -> dict:
     u_vr = [by_name[v["name"]]["vr"] for v in meta["u"]]
     p_vr = [by_name[v["name"]]["vr"] for v in meta["p"]]
     s_vr = [by_name[s["name"]]["vr"] for s in meta["starts"]]
+    d_vr = [by_name[v["name"]]["vr"] for v in meta["d"]]
 
     def knowns(rows_by_kind, row):
         found = set()
@@ -102,7 +103,7 @@ def model_structure(meta: dict, variables: list) -> dict:
 
     def init_rows(what, n):
         return [(_rows(deps[f"init_{what}_s"], n), s_vr), (_rows(deps[f"init_{what}_u"], n), u_vr),
-                (_rows(deps[f"init_{what}_p"], n), p_vr)]
+                (_rows(deps[f"init_{what}_p"], n), p_vr), (_rows(deps[f"init_{what}_d"], n), d_vr)]
 
     init_y, init_xdot = init_rows("y", n_y), init_rows("xdot", n_x)
     initial = []

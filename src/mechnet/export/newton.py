@@ -10,6 +10,7 @@ another, stopping at the first that decreases the residual.
 from __future__ import annotations
 
 import casadi as ca
+import numpy as np
 
 MAX_ITER = 40          # iterations (a loop in C); a start from a guess needs ~5-15, a warm start 1-3
 BACKTRACKS = 12        # step halvings tried before the smallest is taken (as the simulator's Newton)
@@ -39,8 +40,13 @@ def damped_newton(name: str, residual: ca.SX, w: ca.SX, args: list, max_iter: in
     res = ca.Function(f"{name}_residual", [w, *args], [residual])
     jac = ca.Function(f"{name}_jacobian", [w, *args], [ca.jacobian(residual, w)])
     wm, step, norm0 = ca.MX.sym("w", n), ca.MX.sym("step", n), ca.MX.sym("norm0")
-    pm = [ca.MX.sym(f"a{k}", a.numel()) for k, a in enumerate(args)]
-    search_in = [wm, step, norm0, *pm]
+    # the arguments travel packed in one vector, and not at all when empty: a zero-size argument through
+    # mapaccum generates C that newer compilers refuse (an int passed as a pointer)
+    sizes = [a.numel() for a in args]
+    packed = ca.MX.sym("args", sum(sizes))
+    extra = [packed] if sum(sizes) else []
+    pm = ca.vertsplit(packed, list(np.cumsum([0, *sizes]))) if extra else [ca.MX(k, 1) for k in sizes]
+    search_in = [wm, step, norm0, *extra]
 
     # the line search from its last resort (the smallest step, taken whatever it gives) outwards
     search = ca.Function(f"{name}_try{backtracks}", search_in, [wm + 0.5 ** backtracks * step])
@@ -56,18 +62,20 @@ def damped_newton(name: str, residual: ca.SX, w: ca.SX, args: list, max_iter: in
     r = res(wm, *pm)
     norm = _inf_norm(r)
     converged = norm <= tol * (1 + _inf_norm(wm))
-    moved = search(wm, -linear_solve(jac(wm, *pm), r), norm, *pm)
-    work = ca.Function(f"{name}_work", [wm, done, *pm], [ca.if_else(converged, wm, moved), converged])
-    keep = ca.Function(f"{name}_keep", [wm, done, *pm], [wm, done])
+    moved = search(wm, -linear_solve(jac(wm, *pm), r), norm, *extra)
+    work = ca.Function(f"{name}_work", [wm, done, *extra], [ca.if_else(converged, wm, moved), converged])
+    keep = ca.Function(f"{name}_keep", [wm, done, *extra], [wm, done])
     iterate = ca.Function.conditional(f"{name}_iterate", [work], keep)          # 0: not done yet
-    carried = ca.vertcat(*iterate(done, wm, done, *pm))
-    body = ca.Function(f"{name}_body", [ca.vertcat(wm, done), *pm], [carried])
+    carried = ca.vertcat(*iterate(done, wm, done, *extra))
+    body = ca.Function(f"{name}_body", [ca.vertcat(wm, done), *extra], [carried])
 
     w0 = ca.MX.sym("w0", n)
     loop = body.mapaccum(f"{name}_loop", max_iter)
-    out = loop(ca.vertcat(w0, 0), *[ca.repmat(a, 1, max_iter) for a in pm])
+    out = loop(ca.vertcat(w0, 0), *[ca.repmat(a, 1, max_iter) for a in extra])
     w_end = out[:n, -1]
     polished = w_end - linear_solve(jac(w_end, *pm), res(w_end, *pm))
     w_end = ca.if_else(_inf_norm(res(polished, *pm)) <= _inf_norm(res(w_end, *pm)), polished, w_end)
-    return ca.Function(name, [w0, *pm], [w_end, _inf_norm(res(w_end, *pm))],
-                       ["w0", *[f"arg{k}" for k in range(len(pm))]], ["w", "residual_norm"])
+    solve = ca.Function(f"{name}_packed", [w0, *extra], [w_end, _inf_norm(res(w_end, *pm))])
+    outer = [ca.MX.sym(f"arg{k}", k_size) for k, k_size in enumerate(sizes)]
+    return ca.Function(name, [w0, *outer], solve(w0, *([ca.vertcat(*outer)] if extra else [])),
+                       ["w0", *[f"arg{k}" for k in range(len(outer))]], ["w", "residual_norm"])

@@ -412,8 +412,9 @@ class StateEvents:
         right limit and re-arm. Conditions the resets make cross fire at the same instant, in rounds
         (event iteration); a round repeating an earlier one (the same functions from the same state:
         nothing would ever change) or more than MAX_CASCADE rounds is an accumulation: the run stops."""
-        once, seen = set(), set()
+        once, seen, thrown = set(), set(), set()
         dirs = np.array(self.dae.zero_directions)
+        near = None
         for _ in range(MAX_CASCADE + 1):
             if not fired:
                 return
@@ -430,8 +431,12 @@ class StateEvents:
             if not self._resolution or self._resolution[0] != t_e:
                 self._resolution = (t_e, self._time_resolution(t_e, x_e, z_e, gd_left))
             before, _, _ = self._sides(t_e, (g_left, gd_left, gdd_left))
-            near = np.zeros_like(g_left)
-            near[fired] = 2 * np.maximum(np.abs(g_left[fired]), np.abs(gd_left[fired]) * self._tol_t(t_e))
+            # how close to its boundary each condition that crossed at this instant may sit and still count
+            # as on it, kept over the rounds; none for one a reset threw across (it is well past its zero)
+            near = np.zeros_like(g_left) if near is None else near
+            crossed = [h for h in fired if h not in thrown]
+            near[crossed] = np.maximum(near[crossed], 2 * np.maximum(np.abs(g_left[crossed]),
+                                                                     np.abs(gd_left[crossed]) * self._tol_t(t_e)))
             x_now, d_now, u_e = np.asarray(x_e, dtype=float), self.d, self._u_at(t_e)
             for h in fired:                   # one after the other: each sees the resets before it
                 x_plus, d_plus = self.dae.transition[h](t_e, x_now, z_e, u_e, self.p, d_now)
@@ -451,6 +456,7 @@ class StateEvents:
             others = np.ones(len(sides), dtype=bool)
             others[fired] = False
             jumped = others & ~on & _allowed(dirs, before, sides) & (before != 0)
+            thrown = set(np.flatnonzero(jumped).tolist())
             fired = sorted({h for h in now if not (h in once and by_rate[h])} | set(np.flatnonzero(jumped).tolist()))
         self._accumulation(t_e, fired[0], f"more than {MAX_CASCADE} rounds of firings at the same instant")
 
