@@ -58,7 +58,18 @@ typedef struct {
     double jac[MN_NZ * (MN_NX + MN_NZ) + 1];
 } Instance;
 
-static void logf_(Instance *m, int status, const char *category, const char *fmt, ...);
+static void deliver(Instance *m, int status, const char *category, const char *text);   /* per FMI version */
+
+/* a message to the importer's logger: errors always, the rest when debug logging is on */
+static void logf_(Instance *m, int status, const char *category, const char *fmt, ...) {
+    char text[1024];
+    va_list ap;
+    if (!m->logger || (!m->logging && status < ST_WARNING)) return;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    deliver(m, status, category, text);
+}
 
 static int mn_call(Instance *m, mn_eval_t eval, int mem, const double **in, int n_in, double **out, int n_out) {
     int i;
@@ -397,9 +408,6 @@ static int directional(Instance *m, const uint32_t *unknown, size_t nu, const ui
     return ST_OK;
 }
 
-
-static void logf_(Instance *m, int status, const char *category, const char *fmt, ...);
-
 /* ---------------------------------------------------------------- what both FMI versions do alike */
 static int enter_event_mode(Instance *m) {
     m->mode = MODE_EVENT;
@@ -480,13 +488,7 @@ typedef struct {
     double nextEventTime;
 } fmi2EventInfo;
 
-static void logf_(Instance *m, int status, const char *category, const char *fmt, ...) {
-    char text[1024];
-    va_list ap;
-    if (!m->logger || (!m->logging && status < ST_WARNING)) return;
-    va_start(ap, fmt);
-    vsnprintf(text, sizeof text, fmt, ap);
-    va_end(ap);
+static void deliver(Instance *m, int status, const char *category, const char *text) {
     ((fmi2CallbackLogger)m->logger)(m->environment, m->name, status, category, "%s", text);
 }
 
@@ -574,13 +576,7 @@ typedef uint32_t fmi3ValueReference;
 typedef void (*fmi3LogMessageCallback)(void *, int, const char *, const char *);
 #define UNSUPPORTED(m, what) (logf_((Instance *)(m), ST_ERROR, "logStatusError", "%s is not supported by this Model Exchange FMU", what), ST_ERROR)
 
-static void logf_(Instance *m, int status, const char *category, const char *fmt, ...) {
-    char text[1024];
-    va_list ap;
-    if (!m->logger || (!m->logging && status < ST_WARNING)) return;
-    va_start(ap, fmt);
-    vsnprintf(text, sizeof text, fmt, ap);
-    va_end(ap);
+static void deliver(Instance *m, int status, const char *category, const char *text) {
     ((fmi3LogMessageCallback)m->logger)(m->environment, status, category, text);
 }
 
