@@ -97,10 +97,11 @@ _DIRECTIONS = {"both": 0, "rising": 1, "falling": -1, 0: 0, 1: 1, -1: -1}
 
 @dataclass(frozen=True)
 class When:
-    """A state event: when `condition` crosses zero (in `direction`), assign `reset` to states.
+    """A state event: when `condition` crosses zero (in `direction`), assign `reset` to states and modes.
 
-    `reset` maps a state variable to its new value, an expression evaluated just
-    before the event (a bouncing ball: `{self.v: -self.e * self.v}`).
+    `reset` maps a state variable or a `Mode` to its new value, an expression evaluated
+    just before the event (a bouncing ball: `{self.v: -self.e * self.v}`; a relay:
+    `{self.on: 1.0}`).
     `direction`: "falling" (+ to −), "rising" (− to +) or "both".
     """
 
