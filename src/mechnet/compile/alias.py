@@ -252,7 +252,7 @@ def simplify(flat: FlatSystem, options: SimplifyOptions = SimplifyOptions()) -> 
                          flat.effects, stage="simplify", time_events=flat.time_events,
                          folded_parameters=flat.folded_parameters, zero_crossings=zero_crossings,
                          intermediates=_map_intermediates(flat, classes, symbols), multibody=flat.multibody,
-                         observed_only=flat.observed_only)
+                         observed_only=flat.observed_only, unit_quaternions=flat.unit_quaternions)
     return reduced, AliasMap(expressions, n_alias, n_const, removed + (len(flat.equations) - len(equations) - removed))
 
 
@@ -263,8 +263,8 @@ def _map_intermediates(flat, classes, symbols):
     if not syms or flat.multibody is None:
         return flat.intermediates
     index = {v.symbol.element_hash(): i for i, v in enumerate(flat.variables)}
-    gone = [index[s.element_hash()] for _, q, qd in flat.multibody.coordinates for s in (q, qd)
-            if s.element_hash() in index]
+    gone = [index[s.element_hash()] for _, q, qd in flat.multibody.coordinates
+            for s in ca.vertsplit(ca.vertcat(q, qd)) if s.element_hash() in index]
     gone = [i for i in gone if classes.find(i)[0] != i or i in classes.const]
     if not gone:
         return flat.intermediates

@@ -104,6 +104,7 @@ class FlatSystem:
     observed_only: tuple = ()     # (name, symbol, unit, expression): names that left the equations (frames)
     intermediates: tuple = ((), ())  # (symbols, definitions): state-only quantities the equations share
     modes: tuple = ()             # FlatMode: discrete variables, the DAE's d
+    unit_quaternions: tuple = ()  # (what, names): quaternion states, renormalised at restarts, |Q| − 1 watched
 
     def expand(self, exprs: list) -> list:
         """`exprs` with the intermediates replaced by their definitions (sharing kept: one pass)."""

@@ -152,6 +152,8 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     inv = ca.vertcat(*[eq.residual for eq in constraints]) if constraints else ca.SX(0, 1)
     if constraints and sub_from is not None:
         inv = ca.substitute(inv, sub_from, sub_to)
+    quaternions, norms, norm_names = _quaternion_states(original, variables, x_index, x)
+    inv = ca.vertcat(inv, norms)
     ode_expr, alg_expr, obs, inv = flat.expand([ode_expr, alg_expr, obs, inv])
     ode = _fn("ode", args, ode_expr, "xdot")
     algf = _fn("alg", args, alg_expr, "res")
@@ -171,14 +173,15 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     info = {"alg_labels": tuple(alg_labels), "solved": len(value), "folded_parameters": flat.folded_parameters,
             "parameter_checks": {q.name: (q.declaration, q.owner) for q in flat.parameters}, "torn": len(z_index),
             "observed_only": _count_observed_only(value, depends, flat, z_index, original),
-            "nominal": nominal}
+            "nominal": nominal, "quaternions": quaternions}
     return SemiExplicitDAE(
         name=flat.name, t=t, x=x, z=z, u=u, p=p, d=d,
         x_names=x_names, z_names=z_names,
         u_names=tuple(variables[i].name for i in u_index),
         p_names=tuple(q.name for q in flat.parameters), d_names=tuple(m.name for m in modes),
         ode=ode, alg=algf, observed=observed, observed_names=tuple(names),
-        zero=zero, transition=transitions, invariants=invariants, invariant_names=tuple(eq.describe() for eq in constraints),
+        zero=zero, transition=transitions, invariants=invariants,
+        invariant_names=tuple(eq.describe() for eq in constraints) + norm_names,
         zero_labels=tuple(zc.label for zc in flat.zero_crossings),
         zero_directions=tuple(zc.direction for zc in flat.zero_crossings),
         selections=(Selection(x_names, z_names, ode, algf, observed),),
@@ -187,6 +190,24 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
         units=units, starts=starts, guesses=guesses,
         u_default=tuple(variables[i].input_default for i in u_index),
         p_value=tuple(q.value for q in flat.parameters), d_value=tuple(m.start for m in modes), time_events=flat.time_events, info=info)
+
+
+def _quaternion_states(original, variables, x_index, x):
+    """The quaternions among the states: their indices in x (the simulator renormalises them at every
+    restart), |Q| − 1 as invariants, and those invariants' names. A quaternion must be states whole."""
+    position = {variables[i].name: k for k, i in enumerate(x_index)}
+    groups, norms, names = [], [], []
+    for what, members in original.unit_quaternions:
+        if not all(n in position for n in members):
+            missing = [n for n in members if n not in position]
+            raise StructureError(f"{what.split(':')[0]}: the quaternion {', '.join(missing)} is not a state; "
+                                 f"a spherical or free joint's orientation cannot be constrained by other "
+                                 f"equations (a kinematic loop through it, or a prescribed orientation)")
+        index = tuple(position[n] for n in members)
+        groups.append(index)
+        norms.append(ca.sqrt(ca.sumsqr(ca.vertcat(*[x[k] for k in index]))) - 1)
+        names.append(what)
+    return tuple(groups), ca.vertcat(*norms) if norms else ca.SX(0, 1), tuple(names)
 
 
 def _count_observed_only(value, depends, flat, z_index, original) -> int:

@@ -182,7 +182,15 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
                       tuple(sorted(effects.items())), time_events=tuple(sorted(time_events)),
                       folded_parameters=tuple(folded), zero_crossings=tuple(zero_crossings),
                       multibody=tree, observed_only=tuple(tree.observed) if tree is not None else (),
-                      intermediates=tree.intermediates if tree is not None else ((), ()), modes=tuple(modes))
+                      intermediates=tree.intermediates if tree is not None else ((), ()), modes=tuple(modes),
+                      unit_quaternions=_unit_quaternions(components))
+
+
+def _unit_quaternions(components) -> tuple:
+    """(what, names) of every quaternion a component declares (`quaternions`: the spherical and free
+    joints' orientations)."""
+    return tuple((f"{c.path} ({type(c).__name__}): |{key}| − 1", tuple(f"{c.path}.{key}[{i}]" for i in range(4)))
+                 for c in components for key in getattr(c, "quaternions", ()))
 
 
 def _frames_in(expr, tree):

@@ -490,7 +490,7 @@ def expand_unless_states(flat: FlatSystem) -> FlatSystem:
     if not syms or flat.multibody is None:
         return flat
     states = {flat.variables[i].symbol.element_hash() for i in flat.der_of}
-    needed = [s for _, q, qd in flat.multibody.coordinates for s in (q, qd)]
+    needed = [s for _, q, qd in flat.multibody.coordinates for s in ca.vertsplit(ca.vertcat(q, qd))]
     if all(s.element_hash() in states for s in needed):
         return flat
     touched = [k for k, eq in enumerate(flat.equations) if flat.uses_intermediates(eq.residual)]

@@ -51,6 +51,7 @@ from ..core.errors import StructureError
 from .tree_dynamics import cut_forces, dynamics
 from .tree_equations import add_equations
 from .tree_kinematics import FrameKinematics, frame_values, kinematics
+from .loops import loop_edges
 from .tree_loops import close_loops
 from .tree_mass import sensor_equations
 from .tree_pivots import check_pivots, mark_pivots
@@ -78,7 +79,7 @@ class MultibodyTree:
 
     def summary(self) -> str:
         return (f"multibody tree: {self.links} moving link(s), {self.bodies} body(ies), "
-                f"{len(self.coordinates)} joint coordinate(s), rooted at {self.world}"
+                f"{sum(ca.SX(q).numel() for _, q, _ in self.coordinates)} joint coordinate(s), rooted at {self.world}"
                 + (f", {len(self.loops)} kinematic loop(s)" if self.loops else ""))
 
 
@@ -181,6 +182,14 @@ def span(t):
     t.children = {n: [] for n in t.order}
     for n in t.order[1:]:
         t.children[t.parent[n][2]].append(n)
+    for e in t.cuts:
+        around = loop_edges(t.parent, t.node_of[e.frame_a], t.node_of[e.frame_b]) + [e]
+        several = [j for j in around if j.dof > 1]
+        if several:
+            raise StructureError(
+                f"{several[0].path} ({type(several[0]).__name__}) lies on the kinematic loop closed at {e.path} "
+                f"({type(e).__name__}): joints with several freedoms in a loop are not supported yet (spatial "
+                f"loops come next); build the loop from revolute and prismatic joints")
 
 
 def build_tree(components, graph: nx.Graph):

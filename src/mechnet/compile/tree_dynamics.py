@@ -62,8 +62,8 @@ def velocity_terms(t, link):
         d, parent_link = offset(t, link)
         wp = reference(t, parent_link).w
         qd = e.speed()
-        t._velocity_cache[link] = ca.vertcat(cross(wp, S[:3] * qd),
-                                             cross(wp, cross(wp, d)) + 2 * cross(wp, S[3:] * qd))
+        Sv = S * qd if e.dof == 1 else ca.mtimes(S, qd)
+        t._velocity_cache[link] = ca.vertcat(cross(wp, Sv[:3]), cross(wp, cross(wp, d)) + 2 * cross(wp, Sv[3:]))
     return t._velocity_cache[link]
 
 
@@ -102,7 +102,7 @@ def _inward(t, tree, moving, M, bias):
     child_links = {link: [] for link in t.link_nodes}
     for link in moving:
         child_links[t.link_of[t.joint[link][3]]].append(link)
-    IA, Ia, U, D = {}, {}, {}, {}
+    IA, Ia, U, D, D_inv = {}, {}, {}, {}, {}
     massless, inert, reaches_cut = set(), set(), {}
     on_loop = {j.path for e in t.cuts
                for j in loop_edges(t.parent, t.node_of[e.frame_a], t.node_of[e.frame_b])}
@@ -121,9 +121,22 @@ def _inward(t, tree, moving, M, bias):
                 p_k = p_k + transport_wrench(through, dj)
                 continue
             ej, Sj, _, _ = t.joint[j]
+            if ej.dof == 6:                            # a free joint passes nothing on (S is invertible)
+                continue
+            if ej.dof > 1:
+                u_j = ej.axis_load() - ca.mtimes(Sj.T, P[j])
+                through = ca.mtimes(Ia[j], velocity_terms(t, j)) + P[j] + ca.mtimes(U[j], ca.mtimes(D_inv[j], u_j))
+                IA_k = IA_k + transport_inertia(Ia[j], dj)
+                p_k = p_k + transport_wrench(through, dj)
+                continue
             u_j = ej.axis_load() - ca.dot(Sj, P[j])
             IA_k = IA_k + transport_inertia(Ia[j], dj)
             p_k = p_k + transport_wrench(ca.mtimes(Ia[j], velocity_terms(t, j)) + P[j] + U[j] * u_j / D[j], dj)
+        if e.dof > 1:
+            IA[link], U[link], D[link], D_inv[link], Ia[link] = _multi_freedom(t, e, S, IA_k)
+            P[link] = defined(tree, e, [f"{e.path}.bias_wrench[{i}]" for i in range(6)], ["N*m"] * 3 + ["N"] * 3,
+                              p_k, "bias wrench of the subtree (articulated-body inward pass)")
+            continue
         empty = all(ca.SX(x).is_zero() for x in ca.vertsplit(ca.vec(IA_k)))
         unmoved = not empty and link in on_loop and not getattr(e, "use_flange", False) and \
             ca.SX(ca.dot(S, ca.mtimes(IA_k, S))).is_zero()
@@ -160,6 +173,26 @@ def _inward(t, tree, moving, M, bias):
     return IA, D, P, massless
 
 
+def _multi_freedom(t, e, S, IA_k):
+    """IA, U = IA·S, D⁻¹ (twice: the outward pass multiplies by it where a single freedom divides by D),
+    D⁻¹ and the reduced inertia IA − U·D⁻¹·Uᵀ passed to the parent, for a joint with several freedoms
+    (spherical: D = Sᵀ·IA·S is the subtree's inertia about the pivot in frame_b axes; free: nothing
+    passes on). D⁻¹ is written out (3x3 or 6x6): the accelerations then stay explicit, an ODE."""
+    if all(ca.SX(x).is_zero() for x in ca.vertsplit(ca.vec(ca.mtimes(S.T, ca.mtimes(IA_k, S))))):
+        raise StructureError(
+            f"joint {e.path} ({type(e).__name__}) moves no mass: nothing beyond it has mass or inertia, so "
+            f"its accelerations are undetermined; attach a Body beyond the joint")
+    IA_k = t.let(IA_k, f"{e.path}.articulated_inertia")
+    U = t.let(ca.mtimes(IA_k, S), f"{e.path}.IA_S")
+    D = t.let(ca.mtimes(S.T, U), f"{e.path}.D")
+    scale = ca.trace(IA_k[:3, :3]) + (ca.trace(IA_k[3:, 3:]) if e.dof == 6 else 0)
+    t._pivots.append((e, D, scale))
+    D_inv = t.let(ca.inv(D), f"{e.path}.D_inv")       # explicit: the accelerations stay an ODE's
+    if e.dof == 6:
+        return IA_k, U, D_inv, D_inv, ca.SX.zeros(6, 6)
+    return IA_k, U, D_inv, D_inv, t.let(IA_k - ca.mtimes(U, ca.mtimes(D_inv, U.T)), f"{e.path}.reduced_inertia")
+
+
 def _outward(t, tree, moving, M, IA, D, P, massless):
     """Root → leaves: each joint's acceleration row and its link's acceleration (`t.A`). Rows whose pivot
     may be safe are registered for mark_pivots (`t._pivot_rows`)."""
@@ -169,6 +202,14 @@ def _outward(t, tree, moving, M, IA, D, P, massless):
         Ap = t.A[parent_link]
         pre = ca.vertcat(Ap[:3], Ap[3:] + cross(Ap[:3], d)) + velocity_terms(t, link)
         qdd = der(e.speed())
+        if e.dof > 1:
+            add_equations(tree, e, qdd - ca.mtimes(D[link], e.axis_load() - ca.mtimes(
+                S.T, ca.mtimes(IA[link], pre) + P[link])), "joint accelerations: D⁻¹·(τ − Sᵀ(IA·a + p)) "
+                "(articulated-body outward pass)")
+            t.A[link] = defined(tree, e, [f"{e.path}.frame_b.z_0[{i}]" for i in range(3)] +
+                                [f"{e.path}.frame_b.a_0[{i}]" for i in range(3)], ["rad/s2"] * 3 + ["m/s2"] * 3,
+                                pre + ca.mtimes(S, qdd), "link acceleration (articulated-body outward pass)")
+            continue
         if link not in massless and qdd.is_symbolic():
             # D may be divided by when the link's own inertia about its freedom is positive (D is at
             # least that); mark_pivots checks it once the tree is built. Not when simplification

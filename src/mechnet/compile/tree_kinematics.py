@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from ..core.errors import StructureError
 from .tree_spatial import cross, skew
 from .tree_turns import Turn, next_turn
 
@@ -54,10 +55,21 @@ def kinematics(t):
         t.step_norm2[n] = float(ca.sumsqr(ca.DM(r_rel))) if ca.SX(r_rel).is_constant() else None
         r = kp.r + step
         w, v = kp.w, kp.v + cross(kp.w, step)
-        if e.dof:
+        if e.dof > 1:                                 # spherical, free: S from both frames' orientations
+            if not forward:
+                raise StructureError(
+                    f"{e.path} ({type(e).__name__}) is walked from frame_b towards the world: connect its "
+                    f"frame_a on the world's side (frame_b moves relative to frame_a)")
+            R = t.let(R, f"{t.members[n][0].label}.R")
+            S = t.let(e.motion_subspace(kp.R, R), f"{e.path}.S")
+            qd = e.speed()
+            Sv = ca.mtimes(S, qd)
+            w, v = w + Sv[:3], v + Sv[3:]
+        elif e.dof:
             S = joint_axes(e, Ra, forward)
             qd = e.speed()
             w, v = w + S[:3] * qd, v + S[3:] * qd
+        if e.dof:
             t.link_of[n] = e.path
             t.link_nodes[e.path] = [n]
             t.joint[e.path] = (e, S, forward, p)

@@ -21,9 +21,21 @@ def check_pivots(t):
     if not t._pivots:
         return
     _, values, _ = at_random_configurations(
-        t, ca.vertcat(*[ca.vertcat(D, scale) for _, D, scale in t._pivots]), 12345)
-    for k, (e, _, _) in enumerate(t._pivots):
-        if all(abs(v[2 * k]) <= 1e-12 * max(abs(v[2 * k + 1]), 1e-300) for v in values):
+        t, ca.vertcat(*[ca.vertcat(ca.vec(D), scale) for _, D, scale in t._pivots]), 12345)
+    start = 0
+    for e, D, _ in t._pivots:
+        n = D.shape[0]
+        # the smallest eigenvalue of D (a joint with several freedoms: its least-moved direction)
+        smallest = [np.min(np.abs(np.linalg.eigvalsh(v[start:start + n * n].reshape(n, n)))) for v in values]
+        scales = [abs(v[start + n * n]) for v in values]
+        start += n * n + 1
+        if all(s <= 1e-12 * max(c, 1e-300) for s, c in zip(smallest, scales)) and n > 1:
+            raise StructureError(
+                f"joint {e.path} ({type(e).__name__}) moves no mass in some direction: what lies beyond it "
+                f"has no inertia about some axis through the joint (a particle on a rod has none about the "
+                f"rod), so that acceleration is undetermined; give the body beyond it a rotational inertia "
+                f"(mb.Body with I, e.g. mechnet.inertia.sphere)")
+        if all(s <= 1e-12 * max(c, 1e-300) for s, c in zip(smallest, scales)):
             raise StructureError(
                 f"joint {e.path} ({type(e).__name__}) moves no mass: what lies beyond it has no mass "
                 f"(or inertia) along its axis, so its acceleration is undetermined; attach a Body off "

@@ -243,6 +243,7 @@ class MonitoredPieces:
         budget = self._step_budget(float(np.max(np.diff(pts)))) if budgeted else None
         self._failed_at = None
         try:
+            self._renormalise()
             ox, oz = self._turns(self.x, self.z)
             F, out = self._call(t0, h, lambda: self.integrators.get(tau, budget), (self.x - ox) / self.xn,
                                 (self.z - oz) / self.zn if self.zn.size else np.zeros(0), self.pvec(t0, h),

@@ -64,6 +64,13 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         self.integrators = self._integrators(dae)
         self.xn = np.array(dae.x_nominal, dtype=float)
         self.zn = np.array(dae.z_nominal, dtype=float)
+        self.quaternions = [list(index) for index in dae.info.get("quaternions", ())]
+
+    def _renormalise(self):
+        """Quaternion states back to unit length before an integrator call: R uses Q/|Q|, so nothing
+        else changes, and |Q| cannot drift over a long run (DESIGN.md, "Orientation in 3D")."""
+        for index in self.quaternions:
+            self.x[index] = self.x[index] / np.linalg.norm(self.x[index])
 
     def _integrators(self, dae, max_steps=None) -> Integrators:
         plugin, extra, rtol, atol, limit = self.settings
@@ -223,6 +230,7 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         else:
             def get():
                 return self.integrators.get(tuple(float(v) for v in np.round((points[1:] - t0) / h, 12)))
+        self._renormalise()
         ox, oz = self._turns(self.x, self.z)
         xs = (self.x - ox) / self.xn
         zs = (self.z - oz) / self.zn if self.zn.size else np.zeros(0)

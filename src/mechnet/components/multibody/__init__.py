@@ -1,12 +1,12 @@
 """3D rigid-body mechanics (Modelica.Mechanics.MultiBody names and conventions)."""
 from .forces import Damper, Gravitation, PartialLineForce, Spring, SpringDamper, WorldForce, WorldTorque
-from .interfaces import Frame, PartialBody, PartialJoint, PartialTreeEdge, PartialTwoFrames
-from .joints import Prismatic, Revolute, Weld
+from .interfaces import Frame, PartialBody, PartialJoint, PartialMultiJoint, PartialTreeEdge, PartialTwoFrames
+from .joints import FreeMotion, Prismatic, Revolute, Spherical, Weld
 from .parts import Body, FixedRotation, FixedTranslation, Particle, World
 from .sensors import (CutForceTorque, PartialSceneSensor, RelativePosition, RelativeVelocity, SystemEnergy,
                       SystemMomentum)
 
-__all__ = ["Frame", "PartialBody", "PartialJoint", "PartialTreeEdge", "PartialTwoFrames", "PartialLineForce",
+__all__ = ["Frame", "PartialBody", "PartialJoint", "PartialMultiJoint", "Spherical", "FreeMotion", "PartialTreeEdge", "PartialTwoFrames", "PartialLineForce",
            "PartialSceneSensor", "World", "Body", "Particle", "FixedTranslation", "FixedRotation", "Revolute",
            "Prismatic", "Weld", "Spring", "Damper", "SpringDamper", "Gravitation", "WorldForce", "WorldTorque",
            "RelativePosition", "RelativeVelocity", "CutForceTorque", "SystemEnergy", "SystemMomentum"]

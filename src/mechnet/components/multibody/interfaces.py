@@ -80,6 +80,29 @@ class PartialJoint(PartialTreeEdge, abstract=True):
         raise NotImplementedError
 
 
+class PartialMultiJoint(PartialTreeEdge, abstract=True):
+    """A tree edge with several degrees of freedom (`dof`): coordinates (a quaternion among them, so more
+    coordinates than freedoms), speeds ν (one per freedom) and the motion subspace S: the spatial
+    velocity across the joint is S·ν. Walked from frame_a to frame_b only (frame_a towards the world)."""
+
+    dof = 3
+    quaternions: tuple = ()          # keys of quaternion states: renormalised at restarts, |Q| − 1 reported
+
+    def coordinate(self) -> ca.SX:
+        raise NotImplementedError
+
+    def speed(self) -> ca.SX:
+        raise NotImplementedError
+
+    def axis_load(self) -> ca.SX:
+        """Generalised forces along ν (none: these joints are not driven)."""
+        return ca.SX.zeros(self.dof)
+
+    def motion_subspace(self, R_a, R_b) -> ca.SX:
+        """S (6 x dof, angular rows first, world axes) for frame orientations R_a and R_b."""
+        raise NotImplementedError
+
+
 class PartialBody(Component, abstract=True):
     """Mass properties attached at frame_a: mass, mass centre (in frame_a) and inertia about it (frame_a axes)."""
 

@@ -14,13 +14,16 @@ on the parent body (the motor housing sits on the link before the joint).
 from __future__ import annotations
 
 import casadi as ca
+import numpy as np
 
 from ...core.declarations import Flag, Param, Port, State, Var, direction, unit_vector
 from ...core.equation import Eq, der
+from ...core.errors import ParameterError
 from ..rotational.interfaces import Flange as RotationalFlange
 from ..translational.interfaces import Flange as TranslationalFlange
-from .frames import axis_rotation
-from .interfaces import PartialJoint, PartialTreeEdge
+from .frames import (axis_rotation, matrix_of_quaternion, quaternion_of_axis_angle, quaternion_of_matrix,
+                     quaternion_rate, quaternion_rotation)
+from .interfaces import PartialJoint, PartialMultiJoint, PartialTreeEdge
 
 
 def _unit(n) -> ca.DM:
@@ -100,3 +103,114 @@ class Weld(PartialTreeEdge):
 
     def relative_motion(self):
         return ca.SX.zeros(3), ca.SX.eye(3)
+
+
+class _Rotation3D(PartialMultiJoint, abstract=True):
+    """The free rotation shared by Spherical and FreeMotion: an unnormalised quaternion Q of frame_b
+    relative to frame_a (R_b = R_a·R(Q/|Q|)) and the relative angular velocity w_rel resolved in frame_b
+    (DESIGN.md, "Orientation in 3D": no Euler angles, no gimbal lock)."""
+
+    Q = State(shape=4, unit="1", priority="always",
+              doc="quaternion (w, x, y, z) of frame_b relative to frame_a, unnormalised (R uses Q/|Q|)")
+    w_rel = State(shape=3, unit="rad/s", priority="always",
+                  doc="angular velocity of frame_b relative to frame_a, resolved in frame_b")
+    quaternions = ("Q",)
+    _argument_docs = {
+        "R_rel_start": ("", "start orientation of frame_b relative to frame_a as a rotation matrix (frame_b's "
+                            "axes as columns, resolved in frame_a); sets Q_start"),
+        "axis_start": ("", "start orientation as a turn about this axis (resolved in frame_a) ..."),
+        "angle_start": ("rad", "... by this angle; sets Q_start"),
+        "w_rel_a_start": ("rad/s", "start relative angular velocity resolved in frame_a; sets w_rel_start"),
+    }
+
+    def __init__(self, name: str, R_rel_start=None, axis_start=None, angle_start=None, w_rel_a_start=None, **kwargs):
+        label = f"{name} ({type(self).__name__})"
+        given = [k for k, v in (("Q_start", kwargs.get("Q_start")), ("R_rel_start", R_rel_start),
+                                ("axis_start", axis_start)) if v is not None]
+        if len(given) > 1:
+            raise ParameterError(f"{label}: give the start orientation once, not as {' and '.join(given)}")
+        if (axis_start is None) != (angle_start is None):
+            raise ParameterError(f"{label}: axis_start and angle_start go together (a turn about an axis)")
+        try:
+            if R_rel_start is not None:
+                kwargs["Q_start"] = quaternion_of_matrix(R_rel_start, "R_rel_start")
+            elif axis_start is not None:
+                kwargs["Q_start"] = quaternion_of_axis_angle(axis_start, float(angle_start), "axis_start")
+        except (TypeError, ValueError) as exc:
+            raise ParameterError(f"{label}: {exc}") from None
+        if w_rel_a_start is not None:
+            if kwargs.get("w_rel_start") is not None:
+                raise ParameterError(f"{label}: give the start angular velocity once, not as w_rel_start and "
+                                     f"w_rel_a_start")
+            if kwargs.get("Q_start") is None:
+                raise ParameterError(f"{label}: w_rel_a_start (resolved in frame_a) needs the start orientation "
+                                     f"(Q_start, R_rel_start or axis_start/angle_start)")
+            R = matrix_of_quaternion(kwargs["Q_start"])
+            kwargs["w_rel_start"] = R.T @ np.asarray(w_rel_a_start, dtype=float).ravel()
+        super().__init__(name, **kwargs)
+
+    def check(self):
+        start = next(v.start for v in self.variables() if v.local_name == "Q")
+        if start is not None and not np.linalg.norm(start) > 1e-12:
+            raise ParameterError(f"{self.name} ({type(self).__name__}): Q_start = {start.tolist()} is the zero "
+                                 f"quaternion, which is no orientation; the identity is [1, 0, 0, 0]")
+
+    def rotation(self):
+        return quaternion_rotation(self.Q)
+
+    def rotation_equations(self):
+        return [Eq(der(self.Q), quaternion_rate(self.Q, self.w_rel), "quaternion kinematics: ½·Q ⊗ (0, w_rel)")]
+
+
+class Spherical(_Rotation3D):
+    """A ball joint: frame_b turns freely about frame_a's origin (three rotational freedoms, no drive).
+
+    The orientation is an unnormalised quaternion (four states for three freedoms, renormalised at every
+    integrator restart, |Q| − 1 reported as an invariant). Give the start as Q_start, R_rel_start or
+    axis_start/angle_start, and the start angular velocity as w_rel_start (frame_b) or w_rel_a_start
+    (frame_a). Inside a kinematic loop it is not supported yet."""
+
+    dof = 3
+
+    def relative_motion(self):
+        return ca.SX.zeros(3), self.rotation()
+
+    def coordinate(self):
+        return self.Q
+
+    def speed(self):
+        return self.w_rel
+
+    def motion_subspace(self, R_a, R_b):
+        return ca.vertcat(ca.SX(R_b), ca.SX.zeros(3, 3))
+
+    def equations(self):
+        return self.rotation_equations()
+
+
+class FreeMotion(_Rotation3D):
+    """Six freedoms between frame_a and frame_b: a free body hangs on one from the world (Modelica's
+    FreeMotion). The position r_rel and velocity v_rel of frame_b's origin are resolved in frame_a, the
+    orientation and angular velocity as in Spherical (r_rel_start, v_rel_start fix the translation)."""
+
+    dof = 6
+    r_rel = State(shape=3, unit="m", priority="always", doc="position of frame_b's origin from frame_a's, "
+                                                            "resolved in frame_a")
+    v_rel = State(shape=3, unit="m/s", priority="always", doc="der(r_rel): velocity of frame_b's origin "
+                                                              "relative to frame_a, resolved in frame_a")
+
+    def relative_motion(self):
+        return self.r_rel, self.rotation()
+
+    def coordinate(self):
+        return ca.vertcat(self.r_rel, self.Q)
+
+    def speed(self):
+        return ca.vertcat(self.v_rel, self.w_rel)
+
+    def motion_subspace(self, R_a, R_b):
+        zero = ca.SX.zeros(3, 3)
+        return ca.vertcat(ca.horzcat(zero, ca.SX(R_b)), ca.horzcat(ca.SX(R_a), zero))
+
+    def equations(self):
+        return [Eq(der(self.r_rel), self.v_rel)] + self.rotation_equations()

@@ -1,0 +1,219 @@
+"""Rotation in 3D (Spherical and FreeMotion joints, quaternion orientation) against closed forms.
+
+1. a torque-free body spun near its intermediate axis: the Jacobi elliptic solution's half period,
+   conservation of T and |H|, and the error at the default tolerances against SciPy's RK45 on Euler's
+   equations at the same settings;
+2. a free body tumbling under gravity: its mass centre on the exact parabola, |Q| − 1 reported;
+3. a conical pendulum on a spherical joint: the cone angle kept, precession at √(g/(L cos α));
+4. a heavy symmetric top in steady precession: nutation angle kept, precession at the slow root;
+5. bad input: a start orientation that is not a rotation, a zero quaternion, a zero axis.
+
+Conventions: FreeMotion's w_rel is the body's angular velocity in body axes when frame_a is the world;
+frame orientations are observed as `<frame>.R[k]`, row-major, columns = the frame's axes in world.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.special import ellipk
+
+import mechnet as mn
+from mechnet import inertia
+from mechnet.components import multibody as mb
+
+G = 9.81
+I_BODY = np.array([0.3, 0.35, 0.4])
+
+
+def _connect(m, pairs):
+    for a, b in pairs:
+        m.connect(a, b)
+
+
+def _free_body(w0, g=(0.0, 0.0, 0.0), I=I_BODY, mass=2.0, r0=(0.0, 0.0, 0.0), v0=(0.0, 0.0, 0.0), Q0=None):
+    m = mn.Model("free_body")
+    world = m.add(mb.World(name="world", g=list(g)))
+    free = m.add(mb.FreeMotion(name="free", Q_start=Q0 if Q0 is not None else [1.0, 0, 0, 0], w_rel_start=list(w0),
+                               r_rel_start=list(r0), v_rel_start=list(v0)))
+    body = m.add(mb.Body(name="body", m=mass, I=np.diag(I)))
+    _connect(m, [(world.frame_b, free.frame_a), (free.frame_b, body.frame_a)])
+    return m
+
+
+def _euler(t, w, I=I_BODY):
+    """Euler's equations of a torque-free body, body axes."""
+    I1, I2, I3 = I
+    return [(I2 - I3) / I1 * w[1] * w[2], (I3 - I1) / I2 * w[2] * w[0], (I1 - I2) / I3 * w[0] * w[1]]
+
+
+def _half_period(w0, I=I_BODY):
+    """Time between sign changes of ω₂ (the intermediate axis) in the torque-free motion: 2K(k)/λ.
+
+    Landau & Lifshitz, *Mechanics*, §37 (I1 < I2 < I3, 2E = Σ I ω², M² = Σ I² ω²): for M² > 2E·I2,
+    λ² = (I3 − I2)(M² − 2E·I1)/(I1·I2·I3) and k² = (I2 − I1)(2E·I3 − M²)/((I3 − I2)(M² − 2E·I1));
+    for M² < 2E·I2 the same with I1 and I3 exchanged. ω₂ ∝ sn(λt, k) changes sign every 2K(k)/λ."""
+    I1, I2, I3 = I
+    w0 = np.asarray(w0)
+    E2, M2 = np.sum(I * w0 ** 2), np.sum((I * w0) ** 2)
+    if M2 > E2 * I2:
+        lam2 = (I3 - I2) * (M2 - E2 * I1) / (I1 * I2 * I3)
+        k2 = (I2 - I1) * (E2 * I3 - M2) / ((I3 - I2) * (M2 - E2 * I1))
+    else:
+        lam2 = (I2 - I1) * (E2 * I3 - M2) / (I1 * I2 * I3)
+        k2 = (I3 - I2) * (M2 - E2 * I1) / ((I2 - I1) * (E2 * I3 - M2))
+    return 2 * ellipk(k2) / np.sqrt(lam2)
+
+
+W0_INTERMEDIATE = (0.5, 6.0, 1.0)      # rad/s: spun about the intermediate axis, off it enough to flip 3 times in 20 s
+
+
+def test_intermediate_axis_flips_with_the_elliptic_half_period():
+    """ω₂'s sign changes 2K(k)/λ apart within 1e-6 relative (rtol 1e-12, atol 1e-12 rad/s, 20 s; the
+    crossing times interpolated linearly between output points 1e-4 s apart: error ~1e-9 s)."""
+    cm = _free_body(W0_INTERMEDIATE).compile()
+    res = cm.simulate(20.0, rtol=1e-12, atol=1e-12, n_out=200001)
+    w2 = res["free.w_rel[1]"]
+    k = np.flatnonzero(np.sign(w2[1:]) != np.sign(w2[:-1]))
+    crossings = res.t[k] - w2[k] * (res.t[k + 1] - res.t[k]) / (w2[k + 1] - w2[k])
+    assert len(crossings) >= 3
+    expected = _half_period(W0_INTERMEDIATE)
+    assert np.max(np.abs(np.diff(crossings) - expected)) <= 1e-6 * expected
+
+
+def test_torque_free_energy_and_momentum_are_conserved():
+    """T and |H| (body axes: |I·ω|) conserved to 1e-9 relative over 20 s at rtol 1e-12, atol 1e-12;
+    |Q| − 1 is reported as an invariant and stays below 1e-9 (renormalised at restarts)."""
+    cm = _free_body(W0_INTERMEDIATE).compile()
+    res = cm.simulate(20.0, rtol=1e-12, atol=1e-12, n_out=2001)
+    w = np.column_stack([res[f"free.w_rel[{i}]"] for i in range(3)])
+    T = 0.5 * np.sum(I_BODY * w ** 2, axis=1)
+    H = np.linalg.norm(I_BODY * w, axis=1)
+    assert np.max(np.abs(T / T[0] - 1)) <= 1e-9
+    assert np.max(np.abs(H / H[0] - 1)) <= 1e-9
+    names = list(cm.dae.invariant_names)
+    assert any("|Q| − 1" in n and n.startswith("free") for n in names)
+    Q = np.column_stack([res[f"free.Q[{i}]"] for i in range(4)])
+    assert np.max(np.abs(np.linalg.norm(Q, axis=1) - 1)) <= 1e-9
+
+
+def test_default_tolerances_are_as_accurate_as_rk45_on_eulers_equations():
+    """At the default settings (rtol 1e-6, atol 1e-8) ω at t = 20 s is within 10× the error of SciPy's
+    RK45 on Euler's equations at the same rtol and atol; both against RK45 at rtol 1e-12 (DOP853)."""
+    cm = _free_body(W0_INTERMEDIATE).compile()
+    res = cm.simulate(20.0)
+    mine = np.array([res[f"free.w_rel[{i}]"][-1] for i in range(3)])
+    exact = solve_ivp(_euler, (0, 20), W0_INTERMEDIATE, method="DOP853", rtol=1e-13, atol=1e-13).y[:, -1]
+    rk45 = solve_ivp(_euler, (0, 20), W0_INTERMEDIATE, method="RK45", rtol=1e-6, atol=1e-8).y[:, -1]
+    assert np.max(np.abs(mine - exact)) <= 10 * np.max(np.abs(rk45 - exact))
+
+
+def test_a_tumbling_body_falls_on_the_parabola():
+    """A body spun about a general axis, thrown under gravity (0, 0, −9.81): its mass centre (frame
+    origin) on r0 + v0·t + ½·g·t² within 1e-10 of the distance fallen over the run (100 s, 4.7e4 m;
+    rtol 1e-10, atol 1e-10), and in the first second within 10·(rtol·|r| + atol); no failure;
+    |Q| − 1 within what one integrator call can accumulate, 10·rtol per step (renormalised at the start
+    of every call: without that the drift would add up over the whole run)."""
+    g, r0, v0 = np.array([0, 0, -G]), np.array([0.1, -0.2, 3.0]), np.array([1.0, 0.5, 20.0])
+    cm = _free_body((1.0, 2.0, -3.0), g=g, r0=r0, v0=v0).compile()
+    res = cm.simulate(100.0, rtol=1e-10, atol=1e-10, n_out=1001)
+    assert res.failure is None
+    t = res.t
+    r = np.column_stack([res[f"body.frame_a.r_0[{i}]"] for i in range(3)])
+    exact = r0 + np.outer(t, v0) + 0.5 * np.outer(t ** 2, g)
+    error = np.linalg.norm(r - exact, axis=1)
+    assert np.max(error) <= 1e-10 * np.linalg.norm(exact[-1] - r0)
+    early = t <= 1.0
+    assert np.all(error[early] <= 10 * (1e-10 * np.linalg.norm(exact[early], axis=1) + 1e-10))
+    Q = np.column_stack([res[f"free.Q[{i}]"] for i in range(4)])
+    steps_per_call = res.stats["nsteps"] / res.stats["segments"]
+    assert np.max(np.abs(np.linalg.norm(Q, axis=1) - 1)) <= 10 * 1e-10 * steps_per_call
+
+
+def _conical_pendulum(alpha, L=1.0, radius=0.05):
+    """A small solid sphere (1 kg, radius 5 cm: a particle would have no inertia about the rod, which
+    leaves the spin about it undetermined) on a rod of length L from a spherical joint at the world
+    origin, gravity −z, tilted by alpha about x and circling the vertical at the conical rate
+    √(g/(L cos α)): the same as a particle's, since an isotropic inertia adds no gyroscopic moment (the
+    heavy top's relation A·Ω²·cos θ − C·ω3·Ω + m·g·l = 0 with A − C = m·L², ω3 = Ω·cos θ, θ = π − α)."""
+    rate = np.sqrt(G / (L * np.cos(alpha)))
+    m = mn.Model("conical")
+    world = m.add(mb.World(name="world", g=[0.0, 0.0, -G]))
+    ball = m.add(mb.Spherical(name="ball", axis_start=[1, 0, 0], angle_start=alpha, w_rel_a_start=[0, 0, rate]))
+    rod = m.add(mb.FixedTranslation(name="rod", r=[0.0, 0.0, -L]))
+    bob = m.add(mb.Body(name="bob", m=1.0, I=inertia.sphere(1.0, radius)))
+    _connect(m, [(world.frame_b, ball.frame_a), (ball.frame_b, rod.frame_a), (rod.frame_b, bob.frame_a)])
+    return m, rate
+
+
+def test_a_particle_on_a_spherical_joint_is_refused_with_the_reason():
+    """A particle on a rod has no inertia about the rod: the spin about it is undetermined."""
+    m = mn.Model("particle_on_ball")
+    world = m.add(mb.World(name="world"))
+    ball = m.add(mb.Spherical(name="ball", Q_start=[1.0, 0, 0, 0], w_rel_start=[0.0, 0.0, 0.0]))
+    rod = m.add(mb.FixedTranslation(name="rod", r=[0.0, -1.0, 0.0]))
+    bob = m.add(mb.Particle(name="bob", m=1.0))
+    _connect(m, [(world.frame_b, ball.frame_a), (ball.frame_b, rod.frame_a), (rod.frame_b, bob.frame_a)])
+    with pytest.raises(mn.MechnetError, match="ball \\(Spherical\\) moves no mass in some direction.*rotational inertia"):
+        m.compile()
+
+
+def test_a_conical_pendulum_keeps_its_cone_and_rate():
+    """Cone angle kept within 1e-8 rad over 10 s and the bob's azimuth advancing at √(g/(L cos α))
+    within 1e-8 relative (rtol 1e-12, atol 1e-12; α = 0.6 rad, L = 1 m)."""
+    alpha = 0.6
+    cm, rate = _conical_pendulum(alpha)[0].compile(), _conical_pendulum(alpha)[1]
+    res = cm.simulate(10.0, rtol=1e-12, atol=1e-12, n_out=1001)
+    r = np.column_stack([res[f"bob.frame_a.r_0[{i}]"] for i in range(3)])
+    cone = np.arccos(-r[:, 2] / np.linalg.norm(r, axis=1))
+    assert np.max(np.abs(cone - alpha)) <= 1e-8
+    azimuth = np.unwrap(np.arctan2(r[:, 1], r[:, 0]))
+    measured = (azimuth[-1] - azimuth[0]) / (res.t[-1] - res.t[0])
+    assert abs(measured / rate - 1) <= 1e-8
+
+
+def _top(theta0, spin, l=0.1, mass=1.0, A_cm=0.002, C=0.004):
+    """A symmetric top on a spherical pivot at its tip (world origin), symmetry axis = body z, mass
+    centre at l along it; tilted by theta0 about world x; gravity −z. Returns the model, Ω (the slow
+    root of A·Ω²·cos θ0 − C·ω3·Ω + m·g·l = 0, A about the pivot) and ω3."""
+    A = A_cm + mass * l ** 2
+    omega3 = spin
+    disc = (C * omega3) ** 2 - 4 * A * np.cos(theta0) * mass * G * l
+    Omega = (C * omega3 - np.sqrt(disc)) / (2 * A * np.cos(theta0))
+    s = omega3 - Omega * np.cos(theta0)           # spin rate relative to the precessing plane
+    R0 = mb.frames.matrix_of_quaternion(mb.frames.quaternion_of_axis_angle([1, 0, 0], theta0))
+    w_body = R0.T @ np.array([0, 0, Omega]) + np.array([0, 0, s])
+    m = mn.Model("top")
+    world = m.add(mb.World(name="world", g=[0.0, 0.0, -G]))
+    pivot = m.add(mb.Spherical(name="pivot", R_rel_start=R0, w_rel_start=list(w_body)))
+    body = m.add(mb.Body(name="top", m=mass, r_cm=[0.0, 0.0, l], I=np.diag([A_cm, A_cm, C])))
+    _connect(m, [(world.frame_b, pivot.frame_a), (pivot.frame_b, body.frame_a)])
+    return m, Omega
+
+
+def test_a_heavy_top_in_steady_precession():
+    """θ stays within 1e-7 rad of θ0 = 0.5 over 10 s and the symmetry axis precesses at Ω within 1e-7
+    relative (rtol 1e-12, atol 1e-12; spin ω3 = 100 rad/s)."""
+    theta0 = 0.5
+    m, Omega = _top(theta0, 100.0)
+    res = m.compile().simulate(10.0, rtol=1e-12, atol=1e-12, n_out=2001)
+    axis = np.column_stack([res[f"top.frame_a.R[{k}]"] for k in (2, 5, 8)])     # body z in world
+    theta = np.arccos(np.clip(axis[:, 2], -1, 1))
+    assert np.max(np.abs(theta - theta0)) <= 1e-7
+    azimuth = np.unwrap(np.arctan2(axis[:, 1], axis[:, 0]))
+    rate = (azimuth[-1] - azimuth[0]) / (res.t[-1] - res.t[0])
+    assert abs(rate / Omega - 1) <= 1e-7
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    (dict(R_rel_start=np.diag([1.0, 1.0, -1.0])), "R_rel_start .* is not a rotation"),
+    (dict(R_rel_start=[[1.0, 0.1, 0], [0, 1, 0], [0, 0, 1]]), "R_rel_start .* is not a rotation"),
+    (dict(Q_start=[0.0, 0.0, 0.0, 0.0]), "zero quaternion"),
+    (dict(axis_start=[0.0, 0.0, 0.0], angle_start=0.5), "axis_start .* zero vector"),
+    (dict(axis_start=[0.0, 0.0, 1.0]), "axis_start and angle_start go together"),
+    (dict(Q_start=[1.0, 0, 0, 0], R_rel_start=np.eye(3)), "once"),
+])
+def test_bad_start_orientations_are_refused_by_name(kwargs, match):
+    with pytest.raises(mn.MechnetError, match=match) as err:
+        mb.Spherical(name="ball", **kwargs)
+    assert "ball (Spherical)" in str(err.value)
