@@ -36,8 +36,15 @@ def kinematics(cm, q: dict | None = None, qd: dict | None = None, params: dict |
     q_vals = []
     for given, what, k in ((q or {}, "q", 0), (qd or {}, "qd", 1)):
         for path, syms in joints.items():
-            value = given[path] if path in given else starts.get(by_symbol.get(syms[k].element_hash()), 0.0) or 0.0
-            q_vals.append(finite_number(value, f"kinematics({what}=...): {what}[{path!r}]", InputError))
+            scalars = ca.vertsplit(ca.SX(syms[k]))     # a spherical joint: its quaternion, its angular velocity
+            if path in given:
+                values = np.ravel(np.asarray(given[path], dtype=object))
+                if values.size != len(scalars):
+                    raise InputError(f"kinematics({what}=...): {what}[{path!r}] needs {len(scalars)} number(s), "
+                                     f"got {values.size}")
+            else:
+                values = [starts.get(by_symbol.get(s.element_hash()), 0.0) or 0.0 for s in scalars]
+            q_vals.extend(finite_number(v, f"kinematics({what}=...): {what}[{path!r}]", InputError) for v in values)
     labels = sorted(tree.frames)
     outs = []
     for label in labels:

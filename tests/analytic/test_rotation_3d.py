@@ -217,3 +217,16 @@ def test_bad_start_orientations_are_refused_by_name(kwargs, match):
     with pytest.raises(mn.MechnetError, match=match) as err:
         mb.Spherical(name="ball", **kwargs)
     assert "ball (Spherical)" in str(err.value)
+
+
+def test_kinematics_takes_a_quaternion_for_a_spherical_joint():
+    """mn.kinematics with the pivot's quaternion: the top's frame is R(Q/|Q|) (unnormalised Q given, 1e-15),
+    its mass centre at R·(0, 0, l); a wrong length is refused by name."""
+    model, _ = _top(0.5, 100.0)
+    cm = model.compile()
+    Q = np.array([2.0, 0.4, -0.6, 1.0])
+    R = mb.frames.matrix_of_quaternion(Q)
+    k = mn.kinematics(cm, q={"pivot": Q})["top.frame_a"]
+    assert np.max(np.abs(k["R"] - R)) <= 1e-15
+    with pytest.raises(mn.MechnetError, match="q\\['pivot'\\] needs 4 number"):
+        mn.kinematics(cm, q={"pivot": [1.0, 0.0]})
