@@ -61,7 +61,7 @@ def sensor_equations(t) -> list:
 
 
 def check_loop_mass(t, kept, coordinates):
-    """A joint on a loop that moves no mass itself (`_Tree.dynamics`) is well posed when the mechanism gives
+    """A joint on a loop that moves no mass itself (`tree_dynamics._inward`) is well posed when the mechanism gives
     its freedom mass: the kinetic energy's Hessian M in the speeds, restricted to the motions the kept
     closures allow (null space Z of their Jacobian G), must be nonsingular. Judged at two random
     configurations, assembled (Gauss-Newton on the closures) where they can be; flange-driven coordinates

@@ -1,4 +1,4 @@
-"""The tree pass builds a planar chain's orientations from angle sums (spanning_tree._Turn):
+"""The tree pass builds a planar chain's orientations from angle sums (tree_turns.Turn):
 checked against forward kinematics written here with numpy, and against joints it must not trust."""
 import casadi as ca
 import numpy as np
@@ -124,7 +124,7 @@ def _plane_chain(mount, axis):
                                          (((1, 0, 0), 0.0), (1e-7, 0, 1)),       # 1e-7 off z (arccos loses it)
                                          (((1, 0, 0), 0.0), (3e-9, 0, -1))])     # 3e-9 off −z
 def test_a_planar_chain_about_any_fixed_axis_matches_forward_kinematics(mount, axis):
-    """The angle sums hold for rotations about any one fixed axis (spanning_tree._Turn): positions and
+    """The angle sums hold for rotations about any one fixed axis (tree_turns.Turn): positions and
     orientations of the last particle at 5 random q against numpy, to 1e-13 (lengths < 1 m)."""
     m, forward = _plane_chain(mount, axis)
     cm = m.compile()
