@@ -68,7 +68,8 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
 
     def _renormalise(self):
         """Quaternion states back to unit length before an integrator call: R uses Q/|Q|, so nothing
-        else changes, and |Q| cannot drift over a long run (DESIGN.md, "Orientation in 3D")."""
+        else changes, and the drift of |Q| cannot add up across calls (DESIGN.md, "Orientation in 3D").
+        Within one call it is the integrator's error (an event-free run is one call)."""
         for index in self.quaternions:
             self.x[index] = self.x[index] / np.linalg.norm(self.x[index])
 
