@@ -165,7 +165,11 @@ def _inward(t, tree, moving, M, bias):
         D[link] = ca.dot(S, U[link])
         if not getattr(e, "use_flange", False):
             rotates = ca.DM(e.motion_axes()[1]).is_zero()       # revolute: kg·m²; prismatic: kg
-            scale = ca.trace(IA_k[:3, :3]) if rotates else ca.trace(IA_k[3:, 3:]) / 3
+            # the scale must not vanish with D: the subtree's mass times the mechanism's length² counts
+            # too (a revolute whose child is a spherical joint at the same point has neither D nor any
+            # rotational articulated inertia, only the mass at the pivot)
+            scale = ca.trace(IA_k[:3, :3]) + ca.trace(IA_k[3:, 3:]) / 3 * t.length2 if rotates \
+                else ca.trace(IA_k[3:, 3:]) / 3
             t._pivots.append((e, D[link], scale))
         Ia[link] = t.let(IA_k - ca.mtimes(U[link], U[link].T) / D[link], f"{e.path}.reduced_inertia")
         P[link] = defined(tree, e, [f"{e.path}.bias_wrench[{i}]" for i in range(6)], ["N*m"] * 3 + ["N"] * 3,

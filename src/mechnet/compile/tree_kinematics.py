@@ -80,6 +80,8 @@ def kinematics(t):
         name = t.members[n][0].label
         t.kin[n] = FrameKinematics(t.let(r, f"{name}.r_0"), R if same_axes else t.let(R, f"{name}.R"),
                                    w if not e.dof else t.let(w, f"{name}.w_0"), t.let(v, f"{name}.v_0"))
+    lengths = [v for v in t.step_norm2.values() if v]
+    t.length2 = max(lengths) if lengths else 1.0       # the mechanism's size², m²: scales the pivot check
     _place_bodies_and_loads(t)
 
 

@@ -33,13 +33,15 @@ def check_pivots(t):
             raise StructureError(
                 f"joint {e.path} ({type(e).__name__}) moves no mass in some direction: what lies beyond it "
                 f"has no inertia about some axis through the joint (a particle on a rod has none about the "
-                f"rod), so that acceleration is undetermined; give the body beyond it a rotational inertia "
-                f"(mb.Body with I, e.g. mechnet.inertia.sphere)")
+                f"rod), or a joint beyond it at the same point already gives that freedom, so that "
+                f"acceleration is undetermined; give the body beyond it a rotational inertia (mb.Body with I, "
+                f"e.g. mechnet.inertia.sphere), or remove the redundant joint")
         if all(s <= 1e-12 * max(c, 1e-300) for s, c in zip(smallest, scales)):
             raise StructureError(
                 f"joint {e.path} ({type(e).__name__}) moves no mass: what lies beyond it has no mass "
-                f"(or inertia) along its axis, so its acceleration is undetermined; attach a Body off "
-                f"the axis, or drive it through its flange (use_flange=True)")
+                f"(or inertia) along its axis, or a joint beyond it at the same point already gives that "
+                f"freedom, so its acceleration is undetermined; attach a Body off the axis, drive it "
+                f"through its flange (use_flange=True), or remove the redundant joint")
 
 
 def at_random_configurations(t, exprs, seed):

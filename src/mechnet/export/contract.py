@@ -203,6 +203,7 @@ def metadata(cm, dae, starts: list, verdict: dict) -> dict:
         "zero": [{"label": lab, "direction": int(s)} for lab, s in zip(dae.zero_labels, dae.zero_directions)],
         "time_events": [[float(tt), str(cause)] for tt, cause in dae.time_events],
         "invariants": list(dae.invariant_names),
+        "quaternions": [list(index) for index in dae.info.get("quaternions", ())],   # x indices, renormalised
         "alg_labels": list(dae.info.get("alg_labels", ())),
         "folded_parameters": list(dae.info.get("folded_parameters", ())),
         "dependencies": dependencies(dae),

@@ -82,7 +82,8 @@ def _dae(record: dict, fns: dict) -> SemiExplicitDAE:
     checks = {v["name"]: (_declaration(v), v.get("owner", v["name"])) for v in record["p"]}
     info = {"alg_labels": tuple(record["alg_labels"]), "folded_parameters": tuple(record["folded_parameters"]),
             "nominal": {v["name"]: v["nominal"] for v in record["observed"]}, "parameter_checks": checks,
-            "solved": 0, "torn": len(record["z"]), "observed_only": 0}
+            "solved": 0, "torn": len(record["z"]), "observed_only": 0,
+            "quaternions": tuple(tuple(index) for index in record.get("quaternions", ()))}
     return SemiExplicitDAE(
         name=record["name"], t=t, x=x, z=z, u=u, p=p, d=d,
         x_names=names["x"], z_names=names["z"], u_names=names["u"], p_names=names["p"], d_names=names["d"],
