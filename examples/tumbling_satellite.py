@@ -3,7 +3,7 @@
 No gravity (World g = 0); a Body with principal inertias I = diag(0.3, 0.35, 0.4) kg·m² hangs on a
 FreeMotion joint from the world, so `free.w_rel` is the body's angular velocity in body axes. Spun
 at w = (0.5, 6, 1) rad/s, close to the intermediate axis y, the rotation is unstable: ω_y flips sign
-about every 6 s (half period 2K(k)/λ of the Jacobi elliptic solution) while ω_x and ω_z pulse. The
+every 6.55 s (half period 2K(k)/λ of the Jacobi elliptic solution) while ω_x and ω_z pulse. The
 kinetic energy ½ Σ I ω² and |I·ω| are conserved. `reference(t)` is an independent solution: Euler's
 equations of the same body integrated by SciPy (DOP853, rtol = atol = 1e-12). 13 states (position,
 velocity, quaternion, body rates); the quaternion's |Q| − 1 is watched as an invariant.
@@ -19,7 +19,7 @@ W0 = (0.5, 6.0, 1.0)                    # rad/s in body axes: near the intermedi
 
 t_end = 20.0
 plot = ["free.w_rel[0]", "free.w_rel[1]", "free.w_rel[2]"]
-description = ("Torque-free body spun near its intermediate axis: ω_y flips sign every ~6 s "
+description = ("Torque-free body spun near its intermediate axis: ω_y flips sign every 6.55 s "
                "(reference: Euler's equations, SciPy DOP853).")
 
 

@@ -34,7 +34,7 @@ def body_terms(t, body, n, d, d_norm2=None):
         return t._body_cache[key]
     m, r_cm, I = body.mass_properties()
     k = t.kin[n]
-    offset_cm = ca.mtimes(k.R, r_cm) if not ca.DM(r_cm).is_zero() else None
+    offset_cm = ca.mtimes(k.R, r_cm) if not ca.SX(r_cm).is_zero() else None
     if d is None:
         c = offset_cm if offset_cm is not None else ca.SX.zeros(3)
         norm2 = float(ca.sumsqr(ca.DM(r_cm))) if ca.SX(r_cm).is_constant() else None
@@ -44,7 +44,7 @@ def body_terms(t, body, n, d, d_norm2=None):
     C = skew(c)
     # -m·C² = m·(|c|² 1 − c cᵀ): with |c|² a known constant the rotation's cos² + sin² never appears
     I_O = m * (norm2 * ca.SX.eye(3) - ca.mtimes(c, c.T)) if norm2 is not None else -m * ca.mtimes(C, C)
-    if not ca.DM(I).is_zero():
+    if not ca.SX(I).is_zero():
         I_O = I_O + ca.mtimes(k.R, ca.mtimes(I, k.R.T))
     gravity = m * t.world.gravity_at(k.r + offset_cm if offset_cm is not None else k.r)
     out = (blocks(I_O, m * C, -m * C, m * ca.SX.eye(3)),
@@ -255,16 +255,17 @@ def cut_forces(t, tree):
         W = ca.SX.zeros(6)
         for body in t.bodies_at[n]:
             Mb, bb, gb = body_terms(t, body, n, None)
-            flows[body.frame_a] = ca.mtimes(Mb, ca.vertcat(alpha, a_n)) + bb - gb
-            W += flows[body.frame_a]
+            wrench = ca.mtimes(Mb, ca.vertcat(alpha, a_n)) + bb - gb
+            _add(flows, body.frame_a, wrench)       # a two-frame body (BodyShape) also passes a wrench on there
+            W += wrench
         for fr in t.loads_at[n]:
             W -= load(t, fr, n)
         for c in t.children[n]:
             e, forward, _ = t.parent[c]
             child_frame, parent_frame = (e.frame_b, e.frame_a) if forward else (e.frame_a, e.frame_b)
             moved = transport_wrench(sub[c], t.step[c])
-            flows[child_frame] = -sub[c]
-            flows[parent_frame] = moved
+            _add(flows, child_frame, -sub[c])
+            _add(flows, parent_frame, moved)
             W += moved
         sub[n] = W
     root = t.order[0]
@@ -277,3 +278,8 @@ def cut_forces(t, tree):
             for i, (sym, val) in enumerate(zip(ca.vertsplit(fr._values[key]), ca.vertsplit(value))):
                 tree.replaced[sym.element_hash()] = val
                 tree.observed.append((f"{fr.label}.{key}[{i}]", sym, unit, val))
+
+
+def _add(flows, frame, wrench):
+    """flows[frame] += wrench (the first term as it is: a component with one role keeps its expression)."""
+    flows[frame] = flows[frame] + wrench if frame in flows else wrench

@@ -122,7 +122,8 @@ def _place_bodies_and_loads(t):
     t.loads_at = {k: [] for k in range(len(t.members))}
     for c in t.frames:
         if isinstance(c.owner, t.PartialBody):
-            t.bodies_at[t.node_of[c]].append(c.owner)
+            if c is c.owner.frame_a:                 # a body with two frames (BodyShape) sits at frame_a
+                t.bodies_at[t.node_of[c]].append(c.owner)
         elif id(c.owner) in t.cut_ids or not isinstance(c.owner, (t.PartialTreeEdge, t.World)):
             t.loads_at[t.node_of[c]].append(c)        # force elements, sensors, cut edges
 

@@ -2,11 +2,12 @@
 from .forces import Damper, Gravitation, PartialLineForce, Spring, SpringDamper, WorldForce, WorldTorque
 from .interfaces import Frame, PartialBody, PartialJoint, PartialMultiJoint, PartialTreeEdge, PartialTwoFrames
 from .joints import FreeMotion, Prismatic, Revolute, Spherical, Weld
-from .parts import Body, FixedRotation, FixedTranslation, Particle, World
+from .parts import Body, BodyBox, BodyCylinder, BodyShape, FixedRotation, FixedTranslation, Particle, World
 from .sensors import (CutForceTorque, PartialSceneSensor, RelativePosition, RelativeVelocity, SystemEnergy,
                       SystemMomentum)
 
-__all__ = ["Frame", "PartialBody", "PartialJoint", "PartialMultiJoint", "Spherical", "FreeMotion", "PartialTreeEdge", "PartialTwoFrames", "PartialLineForce",
-           "PartialSceneSensor", "World", "Body", "Particle", "FixedTranslation", "FixedRotation", "Revolute",
-           "Prismatic", "Weld", "Spring", "Damper", "SpringDamper", "Gravitation", "WorldForce", "WorldTorque",
+__all__ = ["Frame", "PartialBody", "PartialJoint", "PartialMultiJoint", "PartialTreeEdge", "PartialTwoFrames",
+           "PartialLineForce", "PartialSceneSensor", "World", "Body", "BodyShape", "BodyBox", "BodyCylinder",
+           "Particle", "FixedTranslation", "FixedRotation", "Revolute", "Prismatic", "Spherical", "FreeMotion",
+           "Weld", "Spring", "Damper", "SpringDamper", "Gravitation", "WorldForce", "WorldTorque",
            "RelativePosition", "RelativeVelocity", "CutForceTorque", "SystemEnergy", "SystemMomentum"]
