@@ -178,3 +178,101 @@ def test_spherical_pendulum_conserves_energy_and_vertical_momentum_like_a_hand_w
     assert drift_L <= 3 * hand[20][1]
     assert np.max(hand[1][2][SP_GRID <= 2.0]) <= 1e-7
     assert np.max(hand[20][2]) <= 1e-7
+
+
+# ---- 2. heavy symmetric top released without precession --------------------------------------------
+
+TOP_MASS, TOP_L, TOP_A_CM, TOP_C = 1.0, 0.1, 0.002, 0.004     # kg, m (pivot to mass centre), kg·m² (cm)
+TOP_THETA0, TOP_SPIN = 0.5, 50.0                              # rad from the vertical, rad/s about the axis
+TOP_TOL = dict(rtol=1e-12, atol=1e-12)
+TOP_GRID = np.linspace(0.0, 2.8, 28001)                       # 1e-4 s apart: 4.7 nutation periods of 0.6 s
+
+
+def _released_top():
+    """The top of test_rotation_3d.py (`_top`: pivot at the tip, the world origin; symmetry axis body z,
+    mass centre at l on it) tilted by θ0 about world x and released spinning at ω3 about its axis with
+    no precession and no nutation rate: ω = (0, 0, ω3) in body axes (φ̇ = θ̇ = 0, ψ̇ = ω3)."""
+    R0 = mb.frames.matrix_of_quaternion(mb.frames.quaternion_of_axis_angle([1, 0, 0], TOP_THETA0))
+    m = mn.Model("released_top")
+    world = m.add(mb.World(name="world", g=[0.0, 0.0, -G]))
+    pivot = m.add(mb.Spherical(name="pivot", R_rel_start=R0, w_rel_start=[0.0, 0.0, TOP_SPIN]))
+    body = m.add(mb.Body(name="top", m=TOP_MASS, r_cm=[0.0, 0.0, TOP_L], I=np.diag([TOP_A_CM, TOP_A_CM, TOP_C])))
+    _connect(m, [(world.frame_b, pivot.frame_a), (pivot.frame_b, body.frame_a)])
+    return m.compile()
+
+
+def _turning_cosines():
+    """The roots in [−1, 1] of Goldstein's cubic f(u) = (β − α·u)(1 − u²) − (b − a·u)², ascending.
+
+    A = A_cm + m·l² (about the pivot), C about the axis. Euler angles φ, θ, ψ; u = cos θ. The Lagrangian
+    ½A(θ̇² + φ̇² sin²θ) + ½C(ψ̇ + φ̇ cos θ)² − m·g·l·cos θ has the cyclic momenta p_ψ = C·ω3 = A·a and
+    p_φ = A·φ̇·sin²θ + C·ω3·cos θ = A·b, and the energy E = ½A(θ̇² + φ̇² sin²θ) + ½C·ω3² + m·g·l·cos θ;
+    with E' = E − ½C·ω3², β = 2E'/A, α = 2m·g·l/A, eliminating φ̇ = (b − a·u)/(1 − u²) gives
+    u̇² = f(u): θ turns where f(u) = 0. Released at θ0 with φ̇ = θ̇ = 0: b = a·u0, β = α·u0, so
+    f(u) = (u0 − u)·[α(1 − u²) − a²(u0 − u)]: u0 is a root and the other turning point is
+    u1 = (a² − √(a⁴ − 4α·a²·u0 + 4α²))/(2α) (the third root lies above 1). The cubic is solved here as
+    written (numpy.roots on its coefficients), u1's closed form checks it."""
+    A = TOP_A_CM + TOP_MASS * TOP_L ** 2
+    a, alpha, u0 = TOP_C * TOP_SPIN / A, 2 * TOP_MASS * G * TOP_L / A, np.cos(TOP_THETA0)
+    b, beta = a * u0, alpha * u0
+    # (β − αu)(1 − u²) − (b − au)² = αu³ − (β + a²)u² + (2ab − α)u + β − b²
+    roots = np.roots([alpha, -(beta + a * a), 2 * a * b - alpha, beta - b * b])
+    inside = np.sort(roots.real[(np.abs(roots.imag) < 1e-12) & (np.abs(roots.real) <= 1)])
+    u1 = (a * a - np.sqrt(a ** 4 - 4 * alpha * a * a * u0 + 4 * alpha ** 2)) / (2 * alpha)
+    assert len(inside) == 2 and abs(inside[0] - u1) < 1e-14 and abs(inside[1] - u0) < 1e-14, (inside, u1, u0)
+    return inside
+
+
+def _refined_extrema(t, u, kind):
+    """Each interior sampled extremum of u (kind "min" or "max") refined by the parabola through it and its
+    two neighbours (spacing h): (times, values, error bound). The parabola interpolates u within
+    |u'''|·h³·max|s(s² − 1)|/6 = |u'''|·h³/(9√3) over the three samples (s ∈ [−1, 1]), and both extrema
+    lie among them, so its vertex value is within that of u's extremum; |u'''|·h³ is bounded by the
+    largest third difference |Δ³u| over the run (plus its own round-off, 8·1e-16)."""
+    mid = u[1:-1]
+    if kind == "min":
+        k = np.flatnonzero((mid < u[:-2]) & (mid <= u[2:])) + 1
+    else:
+        k = np.flatnonzero((mid > u[:-2]) & (mid >= u[2:])) + 1
+    h = t[1] - t[0]
+    um, u0, up = u[k - 1], u[k], u[k + 1]
+    curvature = (up - 2 * u0 + um) / 2
+    slope = (up - um) / 2
+    s = -slope / (2 * curvature)                  # vertex, in units of h from the sample
+    bound = (np.max(np.abs(np.diff(u, 3))) + 8e-16) / (9 * np.sqrt(3))
+    return t[k] + s * h, u0 - slope ** 2 / (4 * curvature), bound
+
+
+def test_a_released_top_nutates_to_the_root_of_goldsteins_cubic():
+    """The symmetry axis' tilt θ(t) = arccos(top.frame_a.R[8]) swings between θ0 and θ1 = arccos(u1), the
+    roots of Goldstein's cubic (`_turning_cosines`), within 1e-8 rad at every turning point.
+
+    Settings: rtol 1e-12, atol 1e-12, horizon 2.8 s (4.7 nutation periods of 0.6 s), outputs 1e-4 s
+    apart; scale: θ1 − θ0 = 0.69 rad (θ0 = 0.5, θ1 = 1.193; ω3 = 50 rad/s, m = 1 kg, l = 0.1 m,
+    A = 0.012, C = 0.004 kg·m²: a slow top, so the nutation is large and far from the gyroscopic limit).
+    Each turning point is read off the three samples around the sampled extremum of u = cos θ by the
+    vertex of their parabola (`_refined_extrema`; measurement error bound |Δ³u|max/(9√3), asserted
+    below 1e-10 in u, i.e. 1.1e-10 rad at θ1, leaving the rest of 1e-8 to the integrator).
+    The run's first point is itself a turning point (θ̇ = 0 at release), so the minima of θ are
+    measured from the second on.
+    """
+    u_low, u_high = _turning_cosines()
+    theta1, theta0 = np.arccos(u_low), np.arccos(u_high)
+    assert theta0 == pytest.approx(TOP_THETA0, abs=1e-12)
+    cm = _released_top()
+    res = cm.simulate(TOP_GRID[-1], t_out=TOP_GRID, **TOP_TOL)
+    assert res.success
+    u = res["top.frame_a.R[8]"]
+    t_max, u_max_theta, bound_max = _refined_extrema(res.t, u, "min")      # θ largest where u is smallest
+    t_min, u_min_theta, bound_min = _refined_extrema(res.t, u, "max")
+    assert len(t_max) == 5 and len(t_min) == 4, (t_max, t_min)
+    assert max(bound_max, bound_min) <= 1e-10
+    err_1 = np.abs(np.arccos(u_max_theta) - theta1)
+    err_0 = np.abs(np.arccos(u_min_theta) - theta0)
+    print(f"\nθ1 = {theta1:.12f}: turning points at {np.round(t_max, 5)} s, |error| {err_1.max():.3g} rad; "
+          f"θ0 returns at {np.round(t_min, 5)} s, |error| {err_0.max():.3g} rad; measurement bound "
+          f"{max(bound_max, bound_min):.3g} in u")
+    assert np.max(err_1) <= 1e-8
+    assert np.max(err_0) <= 1e-8
+    # the nutation is periodic: the turning times are evenly spaced (1e-6 s: sampled vertex times)
+    assert np.ptp(np.diff(t_max)) <= 1e-6 and np.ptp(np.diff(t_min)) <= 1e-6

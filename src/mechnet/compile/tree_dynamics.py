@@ -63,7 +63,9 @@ def velocity_terms(t, link):
         wp = reference(t, parent_link).w
         qd = e.speed()
         Sv = S * qd if e.dof == 1 else ca.mtimes(S, qd)
-        t._velocity_cache[link] = ca.vertcat(cross(wp, Sv[:3]), cross(wp, cross(wp, d)) + 2 * cross(wp, Sv[3:]))
+        c = ca.vertcat(cross(wp, Sv[:3]), cross(wp, cross(wp, d)) + 2 * cross(wp, Sv[3:]))
+        # a column of S carried by a frame the joint itself turns (a universal joint's second axis)
+        t._velocity_cache[link] = c + e.motion_bias(S, qd) if e.dof > 1 else c
     return t._velocity_cache[link]
 
 

@@ -102,6 +102,12 @@ class PartialMultiJoint(PartialTreeEdge, abstract=True):
         """S (6 x dof, angular rows first, world axes) for frame orientations R_a and R_b."""
         raise NotImplementedError
 
+    def motion_bias(self, S, nu) -> ca.SX:
+        """dS/dt·ν beyond ω_parent × (S·ν): nonzero where a column of S is carried by a frame the joint
+        itself turns relative to the parent (a universal joint's second axis). Zero for columns fixed in
+        frame_a, and for Spherical's S = R_b (ω_b × R_b·ν = ω_a × R_b·ν)."""
+        return ca.SX.zeros(6)
+
 
 class PartialBody(Component, abstract=True):
     """Mass properties attached at frame_a: mass, mass centre (in frame_a) and inertia about it (frame_a axes)."""

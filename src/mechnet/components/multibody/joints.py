@@ -214,3 +214,119 @@ class FreeMotion(_Rotation3D):
 
     def equations(self):
         return [Eq(der(self.r_rel), self.v_rel)] + self.rotation_equations()
+
+
+class _PlaneAxes:
+    """Two unit vectors across the axis n (numbers): the in-plane directions of Planar."""
+
+    @staticmethod
+    def across(n):
+        n = unit_vector(n)
+        helper = np.eye(3)[int(np.argmin(np.abs(n)))]
+        e_x = np.cross(helper, n)
+        e_x /= np.linalg.norm(e_x)
+        return e_x, np.cross(n, e_x)
+
+
+class Cylindrical(PartialMultiJoint):
+    """Rotation about and translation along one axis n (fixed in frame_a): phi and s (Modelica's
+    Cylindrical)."""
+
+    dof = 2
+    n = Param([1.0, 0.0, 0.0], shape=3, check=direction, doc="axis of rotation and translation, resolved in frame_a")
+    s = State(unit="m", priority="always", doc="distance of frame_b from frame_a along n")
+    phi = State(unit="rad", priority="always", doc="rotation angle of frame_b about n")
+    v = State(unit="m/s", priority="always", doc="der(s)")
+    w = State(unit="rad/s", priority="always", doc="der(phi)")
+
+    def relative_motion(self):
+        n = _unit(self.n)
+        return n * self.s, axis_rotation(n, self.phi)
+
+    def coordinate(self):
+        return ca.vertcat(self.s, self.phi)
+
+    def speed(self):
+        return ca.vertcat(self.v, self.w)
+
+    def motion_subspace(self, R_a, R_b):
+        axis = ca.mtimes(R_a, _unit(self.n))
+        zero = ca.SX.zeros(3, 1)
+        return ca.vertcat(ca.horzcat(zero, axis), ca.horzcat(axis, zero))
+
+    def equations(self):
+        return [Eq(der(self.s), self.v), Eq(der(self.phi), self.w)]
+
+
+class Planar(PartialMultiJoint):
+    """frame_b moves in the plane across n (two translations s_x, s_y along directions made from n) and
+    turns about n by phi (Modelica's Planar; the in-plane axes: e_x across n, e_y = n × e_x)."""
+
+    dof = 3
+    n = Param([0.0, 0.0, 1.0], shape=3, check=direction, doc="normal of the plane, resolved in frame_a")
+    s_x = State(unit="m", priority="always", doc="displacement along e_x (across n)")
+    s_y = State(unit="m", priority="always", doc="displacement along e_y = n × e_x")
+    phi = State(unit="rad", priority="always", doc="rotation angle about n")
+    v_x = State(unit="m/s", priority="always", doc="der(s_x)")
+    v_y = State(unit="m/s", priority="always", doc="der(s_y)")
+    w = State(unit="rad/s", priority="always", doc="der(phi)")
+
+    def relative_motion(self):
+        e_x, e_y = _PlaneAxes.across(self.n)
+        return ca.DM(e_x) * self.s_x + ca.DM(e_y) * self.s_y, axis_rotation(_unit(self.n), self.phi)
+
+    def coordinate(self):
+        return ca.vertcat(self.s_x, self.s_y, self.phi)
+
+    def speed(self):
+        return ca.vertcat(self.v_x, self.v_y, self.w)
+
+    def motion_subspace(self, R_a, R_b):
+        e_x, e_y = _PlaneAxes.across(self.n)
+        zero = ca.SX.zeros(3, 1)
+        return ca.vertcat(ca.horzcat(zero, zero, ca.mtimes(R_a, _unit(self.n))),
+                          ca.horzcat(ca.mtimes(R_a, ca.DM(e_x)), ca.mtimes(R_a, ca.DM(e_y)), zero))
+
+    def equations(self):
+        return [Eq(der(self.s_x), self.v_x), Eq(der(self.s_y), self.v_y), Eq(der(self.phi), self.w)]
+
+
+class Universal(PartialMultiJoint):
+    """Two rotations (a Cardan or Hooke's joint): about n_a (fixed in frame_a) by phi_a, then about n_b
+    (fixed in frame_b) by phi_b; n_a and n_b must not be parallel (Modelica's Universal)."""
+
+    dof = 2
+    n_a = Param([1.0, 0.0, 0.0], shape=3, check=direction, doc="first axis, resolved in frame_a")
+    n_b = Param([0.0, 1.0, 0.0], shape=3, check=direction, doc="second axis, resolved in frame_b")
+    phi_a = State(unit="rad", priority="always", doc="rotation angle about n_a")
+    phi_b = State(unit="rad", priority="always", doc="rotation angle about n_b")
+    w_a = State(unit="rad/s", priority="always", doc="der(phi_a)")
+    w_b = State(unit="rad/s", priority="always", doc="der(phi_b)")
+
+    def check(self):
+        a, b = unit_vector(self.n_a), unit_vector(self.n_b)
+        if np.linalg.norm(np.cross(a, b)) < 1e-6:
+            raise ParameterError(f"{self.name} (Universal): n_a = {np.asarray(self.n_a).tolist()} and n_b = "
+                                 f"{np.asarray(self.n_b).tolist()} are parallel; a universal joint's two axes "
+                                 f"must cross (they are usually perpendicular)")
+
+    def relative_motion(self):
+        return ca.SX.zeros(3), ca.mtimes(axis_rotation(_unit(self.n_a), self.phi_a),
+                                         axis_rotation(_unit(self.n_b), self.phi_b))
+
+    def coordinate(self):
+        return ca.vertcat(self.phi_a, self.phi_b)
+
+    def speed(self):
+        return ca.vertcat(self.w_a, self.w_b)
+
+    def motion_subspace(self, R_a, R_b):
+        zero = ca.SX.zeros(3, 2)
+        return ca.vertcat(ca.horzcat(ca.mtimes(R_a, _unit(self.n_a)), ca.mtimes(R_b, _unit(self.n_b))), zero)
+
+    def motion_bias(self, S, nu):
+        """n_b turns with the first rotation: d/dt(S_b)·w_b gains (S_a·w_a) × (S_b·w_b)."""
+        return ca.vertcat(ca.cross(S[:3, 0] * nu[0], S[:3, 1] * nu[1]), ca.SX.zeros(3))
+
+    def equations(self):
+        return [Eq(der(self.phi_a), self.w_a), Eq(der(self.phi_b), self.w_b)]

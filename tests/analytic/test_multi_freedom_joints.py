@@ -1,0 +1,109 @@
+"""Universal, Cylindrical and Planar joints against the same freedoms built from revolute and prismatic
+joints in series (massless links between them: the tree passes the same motion through either way).
+
+Settings: rtol 1e-10, atol 1e-12, 3 s; coordinates agree within 1e-8 (both runs' integration error,
+~10·rtol·scale with angles and distances of order 1). Energy is conserved to 1e-8 relative in the
+joints' own run (no damping, gravity only)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mechnet as mn
+from mechnet import inertia
+from mechnet.components import multibody as mb
+
+G = 9.81
+SETTINGS = dict(rtol=1e-10, atol=1e-12, n_out=301)
+
+
+def _bob(m, at, offset=(0.3, -0.2, -1.0)):
+    rod = m.add(mb.FixedTranslation(name="rod", r=list(offset)))
+    body = m.add(mb.Body(name="bob", m=2.0, I=inertia.box(2.0, 0.2, 0.3, 0.1)))
+    energy = m.add(mb.SystemEnergy(name="energy"))
+    m.connect(at, rod.frame_a)
+    m.connect(rod.frame_b, body.frame_a)
+    return energy
+
+
+def _series(m, world, joints):
+    frame = world.frame_b
+    for j in joints:
+        m.connect(frame, j.frame_a)
+        frame = j.frame_b
+    return frame
+
+
+def _universal(single):
+    m = mn.Model("universal")
+    world = m.add(mb.World(name="world", g=[0.0, 0.0, -G]))
+    if single:
+        joint = m.add(mb.Universal(name="u", n_a=[1, 0, 0], n_b=[0, 1, 0], phi_a_start=0.4, phi_b_start=-0.3,
+                                   w_a_start=1.0, w_b_start=0.5))
+        end = _series(m, world, [joint])
+    else:
+        a = m.add(mb.Revolute(name="ra", n=[1, 0, 0], phi_start=0.4, w_start=1.0))
+        b = m.add(mb.Revolute(name="rb", n=[0, 1, 0], phi_start=-0.3, w_start=0.5))
+        end = _series(m, world, [a, b])
+    _bob(m, end)
+    return m
+
+
+def _cylindrical(single):
+    m = mn.Model("cylindrical")
+    world = m.add(mb.World(name="world", g=[0.0, -G, 0.0]))
+    tilt = m.add(mb.FixedRotation(name="tilt", n=[0, 0, 1], angle=0.5))
+    m.connect(world.frame_b, tilt.frame_a)
+    if single:
+        joint = m.add(mb.Cylindrical(name="c", n=[1, 0, 0], s_start=0.2, phi_start=0.1, v_start=0.0, w_start=2.0))
+        m.connect(tilt.frame_b, joint.frame_a)
+        end = joint.frame_b
+    else:
+        p = m.add(mb.Prismatic(name="p", n=[1, 0, 0], s_start=0.2, v_start=0.0))
+        r = m.add(mb.Revolute(name="r", n=[1, 0, 0], phi_start=0.1, w_start=2.0))
+        m.connect(tilt.frame_b, p.frame_a)
+        m.connect(p.frame_b, r.frame_a)
+        end = r.frame_b
+    _bob(m, end, offset=(0.0, 0.5, 0.0))
+    return m
+
+
+def _planar(single):
+    m = mn.Model("planar")
+    world = m.add(mb.World(name="world", g=[0.0, -G, 0.0]))
+    if single:
+        joint = m.add(mb.Planar(name="pl", n=[0, 0, 1], s_x_start=0.0, s_y_start=0.0, phi_start=0.3,
+                                v_x_start=1.0, v_y_start=5.0, w_start=4.0))
+        end = _series(m, world, [joint])
+    else:
+        e_x, e_y = mb.joints._PlaneAxes.across([0, 0, 1])
+        px = m.add(mb.Prismatic(name="px", n=list(e_x), s_start=0.0, v_start=1.0))
+        py = m.add(mb.Prismatic(name="py", n=list(e_y), s_start=0.0, v_start=5.0))
+        r = m.add(mb.Revolute(name="r", n=[0, 0, 1], phi_start=0.3, w_start=4.0))
+        end = _series(m, world, [px, py, r])
+    _bob(m, end, offset=(0.4, 0.0, 0.0))
+    return m
+
+
+CASES = {
+    "universal": (_universal, [("u.phi_a", "ra.phi"), ("u.phi_b", "rb.phi")]),
+    "cylindrical": (_cylindrical, [("c.s", "p.s"), ("c.phi", "r.phi")]),
+    "planar": (_planar, [("pl.s_x", "px.s"), ("pl.s_y", "py.s"), ("pl.phi", "r.phi")]),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_a_joint_with_several_freedoms_moves_as_its_joints_in_series(case):
+    build, pairs = CASES[case]
+    one = build(True).compile().simulate(3.0, **SETTINGS)
+    series = build(False).compile().simulate(3.0, **SETTINGS)
+    assert one.failure is None and series.failure is None
+    for mine, theirs in pairs:
+        assert np.max(np.abs(one[mine] - series[theirs])) <= 1e-8, (mine, theirs)
+    energy = one["energy.total"]
+    assert np.max(np.abs(energy - energy[0])) <= 1e-8 * max(np.max(np.abs(one["energy.kinetic"])), 1.0)
+
+
+def test_a_universal_joint_with_parallel_axes_is_refused():
+    with pytest.raises(mn.MechnetError, match="u \\(Universal\\): n_a .* parallel"):
+        mb.Universal(name="u", n_a=[1, 0, 0], n_b=[2, 0, 0])
