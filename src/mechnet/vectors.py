@@ -49,6 +49,22 @@ class ForceSystem:
         """One force acting at `point` plus one couple: a cut force and torque at a frame origin."""
         return cls(forces=[(force, point)], torques=[torque])
 
+    @classmethod
+    def from_frame(cls, res, frame: str, index: int = -1) -> ForceSystem:
+        """The wrench a simulation result's frame carries at row `index`: the cut force `f` and torque `t`
+        into its component (resolved in the frame, Modelica's convention), turned into world components
+        and bound to the frame's origin — a joint's reaction (`"rev.frame_b"`) or a `CutForceTorque`
+        sensor's (`"sensor.frame_b"`) as a force system."""
+        try:
+            R = np.array([res[f"{frame}.R[{k}]"][index] for k in range(9)]).reshape(3, 3)
+            r = np.array([res[f"{frame}.r_0[{k}]"][index] for k in range(3)])
+            f = np.array([res[f"{frame}.f[{k}]"][index] for k in range(3)])
+            t = np.array([res[f"{frame}.t[{k}]"][index] for k in range(3)])
+        except KeyError:
+            raise InputError(f"ForceSystem.from_frame: {frame!r} is not a frame of the result (expected "
+                             f"'<component>.<frame>', e.g. 'rev.frame_b')") from None
+        return cls.wrench(R @ f, R @ t, r)
+
     @property
     def resultant(self) -> np.ndarray:
         """R = Σ F; couples add nothing to it."""

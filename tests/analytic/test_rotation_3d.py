@@ -286,3 +286,27 @@ def test_an_exported_free_body_keeps_its_quaternion_handling(tmp_path):
     assert loaded.dae.info["quaternions"] == cm.dae.info["quaternions"] == ((0, 1, 2, 3),)
     a, b = loaded.simulate(5.0), cm.simulate(5.0)
     assert all(np.array_equal(a[f"free.Q[{i}]"], b[f"free.Q[{i}]"]) for i in range(4))
+
+
+def test_the_conical_pendulums_rod_force_is_a_force_system_through_the_pivot():
+    """ForceSystem.from_frame on the bob's frame: the rod's wrench on the bob is m·(a − g) (a the conical
+    motion's centripetal acceleration), with no moment about the bob's centre (its spin is steady), and
+    its central axis runs along the rod: through the bob and the pivot at the world origin (pitch 0).
+    rtol 1e-12, atol 1e-12, at t = 2 s; tolerances 1e-8 of the weight (N, N·m, m)."""
+    from mechnet.vectors import ForceSystem
+    alpha, L = 0.6, 1.0
+    model, rate = _conical_pendulum(alpha, L)
+    res = model.compile().simulate(2.0, rtol=1e-12, atol=1e-12)
+    wrench = ForceSystem.from_frame(res, "bob.frame_a")
+    r = np.array([res[f"bob.frame_a.r_0[{i}]"][-1] for i in range(3)])
+    a = -rate ** 2 * np.array([r[0], r[1], 0.0])
+    expected = 1.0 * (a - np.array([0.0, 0.0, -G]))
+    assert np.max(np.abs(wrench.resultant - expected)) <= 1e-8 * G
+    assert np.max(np.abs(wrench.moment_about(r))) <= 1e-8 * G
+    axis = wrench.central_axis()
+    for point in (r, np.zeros(3)):                       # the bob and the pivot lie on the axis
+        off = (point - axis.point) - ((point - axis.point) @ axis.direction) * axis.direction
+        assert np.linalg.norm(off) <= 1e-8
+    assert abs(axis.pitch) <= 1e-8
+    with pytest.raises(mn.MechnetError, match="'bob.nowhere' is not a frame"):
+        ForceSystem.from_frame(res, "bob.nowhere")
