@@ -107,3 +107,39 @@ def test_a_joint_with_several_freedoms_moves_as_its_joints_in_series(case):
 def test_a_universal_joint_with_parallel_axes_is_refused():
     with pytest.raises(mn.MechnetError, match="u \\(Universal\\): n_a .* parallel"):
         mb.Universal(name="u", n_a=[1, 0, 0], n_b=[2, 0, 0])
+
+
+def test_a_cardan_shaft_has_the_textbook_speed_ratio():
+    """Input shaft (x) driven at 2 rad/s by a Speed source, a cross on two pins (z, then y), an output
+    shaft tilted by β = 0.4 rad in the x-y plane: a spatial loop of four revolutes whose axes meet at one
+    point (its position closures are redundant and dropped). The output speed ratio is
+    cos β / (1 − sin²β·cos²φ), φ the input yoke's angle from the plane of the two shafts: the yoke holds
+    the first pin (z), perpendicular to that plane at input.phi = 0, so φ = input.phi + π/2. Within 1e-9
+    over 3 s (rtol 1e-11, atol 1e-12). (The loop is built from revolutes: a Universal joint cannot lie
+    on a loop yet.)"""
+    from mechnet.components import rotational as rot
+    from mechnet.components import signals as sig
+    beta = 0.4
+    m = mn.Model("cardan")
+    world = m.add(mb.World(name="world", g=[0, 0, 0]))
+    inp = m.add(mb.Revolute(name="input", n=[1, 0, 0], use_flange=True))
+    motor = m.add(rot.Speed(name="motor", w_ref=sig.Constant(2.0), phi_start=0.0))
+    fixed = m.add(rot.Fixed(name="fixed"))
+    yoke_in = m.add(mb.Body(name="yoke_in", m=1.0, I=inertia.box(1.0, 0.1, 0.1, 0.1)))
+    pin_a = m.add(mb.Revolute(name="pin_a", n=[0, 0, 1]))
+    pin_b = m.add(mb.Revolute(name="pin_b", n=[0, 1, 0]))
+    cross = m.add(mb.Body(name="cross", m=0.2, I=inertia.sphere(0.2, 0.02)))
+    tilt = m.add(mb.FixedRotation(name="tilt", n=[0, 0, 1], angle=beta))
+    out = m.add(mb.Revolute(name="output", n=[1, 0, 0]))
+    yoke_out = m.add(mb.Body(name="yoke_out", m=1.0, I=inertia.box(1.0, 0.1, 0.1, 0.1)))
+    for a, b in [(motor.flange, inp.axis), (fixed.flange, inp.support), (world.frame_b, inp.frame_a),
+                 (inp.frame_b, yoke_in.frame_a), (inp.frame_b, pin_a.frame_a), (pin_a.frame_b, cross.frame_a),
+                 (pin_a.frame_b, pin_b.frame_a), (world.frame_b, tilt.frame_a), (tilt.frame_b, out.frame_a),
+                 (out.frame_b, yoke_out.frame_a), (out.frame_b, pin_b.frame_b)]:
+        m.connect(a, b)
+    res = m.compile().simulate(3.0, rtol=1e-11, atol=1e-12, n_out=301)
+    assert res.failure is None
+    phi = res["input.phi"] + np.pi / 2
+    expected = np.cos(beta) / (1 - np.sin(beta) ** 2 * np.cos(phi) ** 2)
+    assert np.max(np.abs(res["output.w"] / res["input.w"] - expected)) <= 1e-9
+    assert np.ptp(res["output.w"] / res["input.w"]) > 0.1          # the ratio really varies (1/cos β − cos β)
