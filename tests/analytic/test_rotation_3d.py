@@ -310,3 +310,22 @@ def test_the_conical_pendulums_rod_force_is_a_force_system_through_the_pivot():
     assert abs(axis.pitch) <= 1e-8
     with pytest.raises(mn.MechnetError, match="'bob.nowhere' is not a frame"):
         ForceSystem.from_frame(res, "bob.nowhere")
+
+
+def test_a_spherical_joint_on_a_loop_is_refused_by_name():
+    """Until spatial loops through quaternion joints land: a loop World – revolute – link – spherical –
+    link – revolute – World is refused naming the spherical joint and the loop's cut joint."""
+    m = mn.Model("loop")
+    world = m.add(mb.World(name="world", g=[0.0, 0.0, -G]))
+    r1 = m.add(mb.Revolute(name="r1", n=[0, 0, 1], phi_start=0.0, w_start=0.0))
+    a = m.add(mb.BodyShape(name="a", r=[1.0, 0, 0], r_cm=[0.5, 0, 0], m=1.0, I=inertia.rod(1.0, 1.0)))
+    ball = m.add(mb.Spherical(name="ball", Q_start=[1.0, 0, 0, 0], w_rel_start=[0.0, 0.0, 0.0]))
+    b = m.add(mb.BodyShape(name="b", r=[0, 1.0, 0], r_cm=[0, 0.5, 0], m=1.0, I=inertia.rod(1.0, 1.0, axis=1)))
+    ground = m.add(mb.FixedTranslation(name="ground", r=[1.0, 1.0, 0]))
+    r2 = m.add(mb.Revolute(name="r2", n=[0, 0, 1]))
+    _connect(m, [(world.frame_b, r1.frame_a), (r1.frame_b, a.frame_a), (a.frame_b, ball.frame_a),
+                 (ball.frame_b, b.frame_a), (world.frame_b, ground.frame_a), (ground.frame_b, r2.frame_a),
+                 (r2.frame_b, b.frame_b)])
+    with pytest.raises(mn.MechnetError, match="ball \\(Spherical\\) lies on the kinematic loop closed at .*not "
+                                              "supported yet"):
+        m.compile()
