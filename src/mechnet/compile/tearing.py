@@ -58,7 +58,8 @@ def _largest_constant_coefficient(residual: ca.SX) -> float:
     """The largest |constant coefficient| of the residual's variables (0 when none is constant)."""
     syms = ca.symvar(residual)
     J = ca.jacobian(residual, ca.vertcat(*syms)) if syms else ca.SX(1, 0)
-    values = [abs(float(ca.evalf(J[0, k]))) for k in range(J.size2()) if J[0, k].is_constant()]
+    # the structural nonzeros only, each read as a number directly (evalf would build a Function each)
+    values = [abs(float(ca.DM(e))) for e in J.nonzeros() if e.is_constant()]
     return max(values, default=0.0)
 
 
