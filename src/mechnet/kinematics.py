@@ -17,8 +17,10 @@ from .core.errors import InputError, SceneError, UnknownNameError
 def kinematics(cm, q: dict | None = None, qd: dict | None = None, params: dict | None = None) -> dict:
     """{frame label: {"r_0", "R", "v_0", "w_0"}} (world components) at joint coordinates `q` and speeds `qd`.
 
-    `q` and `qd` map joint paths (e.g. "arm.rev1") to a value; unspecified
-    joints take their start values (or 0). `params` sets tunable parameters.
+    `q` and `qd` map joint paths (e.g. "arm.rev1") to a value, or to an array for a joint with several
+    freedoms in its coordinate order (Spherical: q = Q (w, x, y, z), qd = w_rel; FreeMotion: q = (r_rel,
+    Q), qd = (v_rel, w_rel); Universal: (phi_a, phi_b) ...); unspecified joints take their start values
+    (or 0; a quaternion without one is the identity). `params` sets tunable parameters.
     """
     flat = cm.stages["flat"]
     tree = flat.multibody
@@ -44,7 +46,10 @@ def kinematics(cm, q: dict | None = None, qd: dict | None = None, params: dict |
                                      f"got {values.size}")
             else:
                 values = [starts.get(by_symbol.get(s.element_hash()), 0.0) or 0.0 for s in scalars]
-            q_vals.extend(finite_number(v, f"kinematics({what}=...): {what}[{path!r}]", InputError) for v in values)
+            values = [finite_number(v, f"kinematics({what}=...): {what}[{path!r}]", InputError) for v in values]
+            if k == 0:
+                values = _quaternions(flat, path, scalars, values, path in given, by_symbol)
+            q_vals.extend(values)
     labels = sorted(tree.frames)
     outs = []
     for label in labels:
@@ -68,3 +73,17 @@ def kinematics(cm, q: dict | None = None, qd: dict | None = None, params: dict |
         out[label] = {"r_0": r, "R": R, "v_0": v, "w_0": w}
         i += 18
     return out
+
+
+def _quaternions(flat, path, scalars, values, given, by_symbol):
+    """A joint's coordinates with its quaternion (if any) checked: a zero quaternion given is refused by
+    name, one left without a start is the identity."""
+    groups = {n for _, names in flat.unit_quaternions for n in names}
+    index = [i for i, s in enumerate(scalars) if by_symbol.get(s.element_hash()) in groups]
+    if index and not any(values[i] for i in index):
+        if given:
+            raise InputError(f"kinematics(q=...): the quaternion in q[{path!r}] is zero, which is no "
+                             f"orientation; the identity is [1, 0, 0, 0]")
+        values = list(values)
+        values[index[0]] = 1.0
+    return values

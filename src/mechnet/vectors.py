@@ -53,8 +53,9 @@ class ForceSystem:
     def from_frame(cls, res, frame: str, index: int = -1) -> ForceSystem:
         """The wrench a simulation result's frame carries at row `index`: the cut force `f` and torque `t`
         into its component (resolved in the frame, Modelica's convention), turned into world components
-        and bound to the frame's origin — a joint's reaction (`"rev.frame_b"`) or a `CutForceTorque`
-        sensor's (`"sensor.frame_b"`) as a force system."""
+        and bound to the frame's origin — a joint's reaction (`"rev.frame_b"`), or what a `CutForceTorque`
+        sensor reports (`"sensor.frame_a"`: the wrench from frame_a's side onto frame_b's) as a force
+        system."""
         try:
             R = np.array([res[f"{frame}.R[{k}]"][index] for k in range(9)]).reshape(3, 3)
             r = np.array([res[f"{frame}.r_0[{k}]"][index] for k in range(3)])

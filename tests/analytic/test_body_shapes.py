@@ -121,3 +121,22 @@ def test_bad_shapes_are_refused_by_name(cls, kwargs, match):
     with pytest.raises(mn.MechnetError, match=match) as err:
         cls(name="part", **kwargs)
     assert f"part ({cls.__name__})" in str(err.value)
+
+
+def test_sizes_left_at_their_default_keep_it_when_every_parameter_is_tunable():
+    """Under mn.every_parameter_tunable() a BodyBox's 0 sizes (width, height, length) still mean their
+    defaults: the same mass (19.25 kg of steel for a 1 m box of 5 cm x 5 cm) as without."""
+    plain = mb.BodyBox(name="box", r=[1.0, 0, 0])
+    with mn.every_parameter_tunable():
+        tuned = mb.BodyBox(name="box", r=[1.0, 0, 0])
+    assert "width" in tuned.tunable
+    assert abs(float(plain.mass_properties()[0]) - 19.25) <= 1e-12
+    assert abs(float(ca_value(tuned.mass_properties()[0], tuned)) - 19.25) <= 1e-12
+
+
+def ca_value(expr, component):
+    """A mass property with the component's tunable symbols at their values."""
+    import casadi as ca
+    syms = [s for s, _ in component.tunable.values()]
+    values = [v for _, v in component.tunable.values()]
+    return ca.evalf(ca.substitute(ca.SX(expr), ca.vertcat(*syms), ca.DM(values)))

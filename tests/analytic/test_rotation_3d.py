@@ -329,3 +329,18 @@ def test_a_spherical_joint_on_a_loop_is_refused_by_name():
     with pytest.raises(mn.MechnetError, match="ball \\(Spherical\\) lies on the kinematic loop closed at .*not "
                                               "supported yet"):
         m.compile()
+
+
+def test_kinematics_takes_the_identity_for_a_quaternion_without_start_and_refuses_a_zero_one():
+    m = mn.Model("no_start")
+    world = m.add(mb.World(name="world", g=[0.0, 0.0, -G]))
+    ball = m.add(mb.Spherical(name="ball"))
+    rod = m.add(mb.FixedTranslation(name="rod", r=[0.0, 0.0, -1.0]))
+    bob = m.add(mb.Body(name="bob", m=1.0, I=inertia.sphere(1.0, 0.05)))
+    _connect(m, [(world.frame_b, ball.frame_a), (ball.frame_b, rod.frame_a), (rod.frame_b, bob.frame_a)])
+    cm = m.compile()
+    frames = mn.kinematics(cm)
+    assert np.array_equal(frames["bob.frame_a"]["R"], np.eye(3))
+    assert np.allclose(frames["bob.frame_a"]["r_0"], [0.0, 0.0, -1.0], atol=1e-15)
+    with pytest.raises(mn.MechnetError, match="quaternion in q\\['ball'\\] is zero"):
+        mn.kinematics(cm, q={"ball": [0.0, 0.0, 0.0, 0.0]})

@@ -121,6 +121,9 @@ def _place_bodies_and_loads(t):
     t.bodies_at = {k: [] for k in range(len(t.members))}
     t.loads_at = {k: [] for k in range(len(t.members))}
     for c in t.frames:
+        if isinstance(c.owner, t.PartialBody) and id(c.owner) in t.cut_ids:
+            raise StructureError(f"{c.owner.path} ({type(c.owner).__name__}) closes a kinematic loop: a body with "
+                                 f"two frames cannot be a loop's cut; close the loop at a joint")
         if isinstance(c.owner, t.PartialBody):
             if c is c.owner.frame_a:                 # a body with two frames (BodyShape) sits at frame_a
                 t.bodies_at[t.node_of[c]].append(c.owner)

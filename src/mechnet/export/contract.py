@@ -9,7 +9,8 @@ friction element stuck or sliding); in an FMU they are discrete variables.
     ode(t,x,z,u,p,d) -> xdot            the state derivatives
     alg(t,x,z,u,p,d) -> res             0 = res determines z (empty for an ODE)
     observed(t,x,z,u,p,d) -> y          every dotted name of the scene, `observed_names` order
-    invariants(t,x,z,u,p,d) -> c        the constraints index reduction differentiated (0 on the solution)
+    invariants(t,x,z,u,p,d) -> c        the constraints index reduction differentiated, and |Q| − 1 of each
+                                        quaternion (0 on the solution)
     zero(t,x,z,u,p,d) -> g              event conditions; an event is g crossing 0 in its direction
     transition[i](t,x,z,u,p,d) -> (x_plus, d_plus)   the states and modes after event i
     init(t, u, p, d, s, w0) -> (x, z, residual_norm)  consistent start from the start values s

@@ -100,8 +100,9 @@ class BodyShape(PartialTreeEdge, PartialBody):
 
 class _SolidShape(PartialTreeEdge, PartialBody, abstract=True):
     """A homogeneous solid from frame_a's r_shape along length_direction (Modelica's BodyBox and
-    BodyCylinder): geometry and density give m, r_cm and I; frame_b is at r. Defaults as Modelica's:
-    the shape runs from r_shape to r, its width a twentieth of its length, steel's density."""
+    BodyCylinder): geometry and density give m, r_cm and I; frame_b is at r. Defaults like Modelica's:
+    the shape runs from r_shape to r, its width a twentieth of its length, steel's density. A size left
+    at 0 takes its default even where it was made tunable (its symbol would stand for 0)."""
 
     r = Param(unit="m", shape=3, doc="origin of frame_b, resolved in frame_a")
     r_shape = Param([0.0, 0.0, 0.0], unit="m", shape=3, doc="where the shape starts, resolved in frame_a")
@@ -119,14 +120,21 @@ class _SolidShape(PartialTreeEdge, PartialBody, abstract=True):
                                  f"r_shape, so the shape has no axis; give length_direction or r")
         return unit_vector(along)
 
+    def _size(self, key, default):
+        """A size parameter, or `default` where it is 0 (also when tunable: its value decides)."""
+        value = self.tunable[key][1] if key in self.tunable else self._values[key]
+        if _is_number(value) and float(value) == 0.0:
+            return default() if callable(default) else default
+        return self._values[key]
+
     def _length(self):
-        if _is_number(self.length) and float(self.length) == 0.0:
-            span = float(np.linalg.norm(np.asarray(self.r, dtype=float) - np.asarray(self.r_shape, dtype=float)))
-            if span == 0.0:
+        def span():
+            gap = float(np.linalg.norm(np.asarray(self.r, dtype=float) - np.asarray(self.r_shape, dtype=float)))
+            if gap == 0.0:
                 raise ParameterError(f"{self.name} ({type(self).__name__}): length is 0 and r equals r_shape; "
                                      f"give the length (m)")
-            return span
-        return self.length
+            return gap
+        return self._size("length", span)
 
     def relative_motion(self):
         return ca.SX(self.r), ca.SX.eye(3)
@@ -142,6 +150,8 @@ def _is_number(value) -> bool:
 
 def _positive_size(component, **sizes):
     for key, value in sizes.items():
+        if not _is_number(value) and key in component.tunable:
+            value = component.tunable[key][1]                 # a tunable size: its value must be > 0
         if _is_number(value) and not float(value) > 0:
             raise ParameterError(f"{component.name} ({type(component).__name__}): {key} = {value!r} must be > 0")
 
@@ -169,9 +179,8 @@ class BodyBox(_SolidShape):
 
     def _sizes(self):
         L = self._length()
-        w = L / 20 if _is_number(self.width) and float(self.width) == 0.0 else self.width
-        h = w if _is_number(self.height) and float(self.height) == 0.0 else self.height
-        return L, w, h
+        w = self._size("width", lambda: L / 20)
+        return L, w, self._size("height", w)
 
     def check(self):
         super().check()
@@ -206,8 +215,7 @@ class BodyCylinder(_SolidShape):
 
     def _sizes(self):
         L = self._length()
-        d = L / 20 if _is_number(self.diameter) and float(self.diameter) == 0.0 else self.diameter
-        return L, d, self.inner_diameter
+        return L, self._size("diameter", lambda: L / 20), self.inner_diameter
 
     def check(self):
         super().check()
