@@ -203,7 +203,7 @@ def reduce_redundancy(cuts, residuals, coordinates, let, tunables, parent_descri
                 f"over-constrained kinematic loop(s): {names} impose {A.shape[0]} closure constraints of "
                 f"which only {rank} are independent, and the redundant ones are not a planar loop's constant "
                 f"out-of-plane directions; replace one joint of the loop by a joint with fewer constraints "
-                f"(e.g. a weld by a joint, or a revolute by a cylindrical pair of joints), or open the loop")
+                f"(e.g. a weld by a joint, or a revolute by a revolute and a prismatic along its axis), or open the loop")
     return bases
 
 
