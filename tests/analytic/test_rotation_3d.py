@@ -344,3 +344,17 @@ def test_kinematics_takes_the_identity_for_a_quaternion_without_start_and_refuse
     assert np.allclose(frames["bob.frame_a"]["r_0"], [0.0, 0.0, -1.0], atol=1e-15)
     with pytest.raises(mn.MechnetError, match="quaternion in q\\['ball'\\] is zero"):
         mn.kinematics(cm, q={"ball": [0.0, 0.0, 0.0, 0.0]})
+
+
+def test_the_quaternion_norm_stays_bounded_over_a_long_event_free_run():
+    """500 s of the tumbling body at the default tolerances in one integrator call: the pull term
+    λ(1 − |Q|²)Q of der(Q) keeps ||Q| − 1| below 1e-5 (without it the drift grew linearly: 2.4e-4 by
+    200 s, 2.2e-3 by 2000 s), and T stays within 1e-5 relative (R uses Q/|Q|: the pull changes nothing
+    physical)."""
+    cm = _free_body(W0_INTERMEDIATE).compile()
+    res = cm.simulate(500.0, n_out=401)
+    Q = np.column_stack([res[f"free.Q[{i}]"] for i in range(4)])
+    assert np.max(np.abs(np.linalg.norm(Q, axis=1) - 1)) <= 1e-5
+    w = np.column_stack([res[f"free.w_rel[{i}]"] for i in range(3)])
+    T = 0.5 * np.sum(I_BODY * w ** 2, axis=1)
+    assert np.max(np.abs(T / T[0] - 1)) <= 1e-5

@@ -105,6 +105,9 @@ class Weld(PartialTreeEdge):
         return ca.SX.zeros(3), ca.SX.eye(3)
 
 
+QUATERNION_PULL = 1.0     # 1/s: how fast a drifted |Q| returns to 1
+
+
 class _Rotation3D(PartialMultiJoint, abstract=True):
     """The free rotation shared by Spherical and FreeMotion: an unnormalised quaternion Q of frame_b
     relative to frame_a (R_b = R_a·R(Q/|Q|)) and the relative angular velocity w_rel resolved in frame_b
@@ -159,7 +162,10 @@ class _Rotation3D(PartialMultiJoint, abstract=True):
         return quaternion_rotation(self.Q)
 
     def rotation_equations(self):
-        return [Eq(der(self.Q), quaternion_rate(self.Q, self.w_rel), "quaternion kinematics: ½·Q ⊗ (0, w_rel)")]
+        # + λ(1 − |Q|²)·Q pulls |Q| back to 1 within one integrator call (R uses Q/|Q|: nothing physical
+        # changes); λ = 1/s is far slower than any motion the integrator resolves, so it adds no stiffness
+        return [Eq(der(self.Q), quaternion_rate(self.Q, self.w_rel) + QUATERNION_PULL * (1 - ca.sumsqr(self.Q)) * self.Q,
+                   "quaternion kinematics: ½·Q ⊗ (0, w_rel), |Q| held near 1")]
 
 
 class Spherical(_Rotation3D):
