@@ -41,12 +41,16 @@ compile and integrator construction excluded; a run slower than 1 s is timed onc
 
 Time to reach an error e: the cheapest runs on either side of e, interpolated linearly in log(time)
 against log(error); "~" = extrapolated from the two most accurate runs (e not reached), "<=" = already
-the cheapest run meets it. Ratios: mechnet (auto) / hand (Adams), mechnet / the best MuJoCo integrator.
+the cheapest run meets it, "-" = not reached within a factor EXTRAPOLATE (10) of the most accurate run. Ratios: mechnet (auto) / hand (Adams), mechnet / the best MuJoCo integrator.
 
-Part 2 (compile and per-step cost of 3D spherical chains, N = 10, 20, 40): construction + compile time,
-the ODE's instruction count (in total and per link), the ODE's evaluation time per point (`ode.map(1000)`
-on 1000 random states, median of 5: Python's call overhead spread over the batch) and the wall time
-per integrator step of a 2 s simulation at rtol 1e-8.
+Part 2 (compile and per-step cost of 3D spherical chains, N = 10, 20, 40, the chain above made longer):
+construction + compile time, the ODE's instruction count (in total and per link), the ODE's evaluation
+time per point (`ode.map(1000)` on 1000 random states, median of 5: Python's call overhead spread over
+the batch), the wall time per integrator step of a 2 s simulation (cvodes-adams, rtol = atol = 1e-8,
+at most SCALING_MAX_STEPS steps: a failed run still gives its cost per step), and the ODE's joint
+accelerations der(w_rel) at the start state against MuJoCo's qacc (the same child-frame components);
+the simulation is skipped when they differ by more than ACC_AGREE of the largest (a run of such an
+ODE fails after 16-70 s).
 
 Usage:  python benchmarks/rotation.py [--quick] [--no-plot]
         (--quick: rtol 1e-3..1e-8 every second decade, fewer MuJoCo steps, N = 10, 20 in part 2)
@@ -60,6 +64,7 @@ import platform
 import statistics
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import casadi as ca
@@ -90,8 +95,11 @@ MUJOCO_MAX_RUN = 2.0          # s: no finer MuJoCo step once a run takes longer 
 QUICK_MUJOCO_MAX_RUN = 0.4
 MUJOCO_ERR_FLOOR = 1e-8       # stop refining a MuJoCo integrator below this error
 MAX_STEPS = 1_000_000
+EXTRAPOLATE = 10.0            # extrapolate at most this factor below the most accurate run's error
 PLUGIN = dict(chain3d.PLUGIN)
 CHAIN_NS = (10, 20, 40)
+ACC_AGREE = 1e-3              # part 2: simulate only when der(w_rel) matches MuJoCo's qacc to this share
+SCALING_MAX_STEPS = 2000      # per output interval, part 2's timing runs
 QUICK_CHAIN_NS = (10, 20)
 
 # ----------------------------------------------------------------------------- scene data
@@ -321,6 +329,8 @@ def time_to(points, target):
     (t1, e1), (t2, e2) = sorted(best)
     if len(pts) < 2 or e2 >= e1 or t2 <= t1:
         return None, "-"
+    if target < min(e1, e2) / EXTRAPOLATE:
+        return None, "-"
     slope = (math.log(t2) - math.log(t1)) / (math.log(e2) - math.log(e1))
     return math.exp(math.log(t2) + slope * (math.log(target) - math.log(e2))), "~"
 
@@ -355,6 +365,10 @@ def sweep_scene(scene, rtols, mj_max_run):
         checks["w vs Euler/DOP853 (rad/s)"] = float(np.max(np.abs(w_mn - w_ex)))
         r_mn = np.array([ref_res[f"body.frame_a.r_0[{i}]"][-1] for i in range(3)])
         checks["r vs parabola (m)"] = float(np.max(np.abs(r_mn - (TUMBLE["r0"] + TUMBLE["v0"] * T + 0.5 * GRAV * T * T))))
+    hand_ops = None
+    if scene != "chain":
+        hx, hode, _, _ = hand_model(scene)
+        hand_ops = int(ca.Function("f", [hx], [hode]).n_instructions())
     mjs = MjScene(scene)
 
     curves = {}                                   # label -> [(time, err, setting, reps, nsteps)]
@@ -400,7 +414,7 @@ def sweep_scene(scene, rtols, mj_max_run):
         checks[f"MuJoCo RK4 dt {mj_fine[0]:.1e}"] = mj_fine[1]
     print("  reference checks (max |difference| in the compared quantity): "
           + ", ".join(f"{k} {v:.1e}" for k, v in checks.items()), flush=True)
-    return {"scene": scene, "T": T, "compile": compile_s, "ops": ops, "curves": curves, "checks": checks,
+    return {"scene": scene, "T": T, "compile": compile_s, "ops": ops, "hand_ops": hand_ops, "curves": curves, "checks": checks,
             "ref_steps": int(ref_res.stats.get("nsteps", 0))}
 
 
@@ -434,13 +448,42 @@ def chain_scaling(ns):
             F(*args)
             times.append((time.perf_counter() - s0) / 1000)
         rhs_us = 1e6 * statistics.median(times)
-        sim, reps, res = timed_best(lambda: cm.simulate(CHAIN["T"], rtol=1e-8, atol=1e-8, n_out=2, max_steps=MAX_STEPS))
-        assert res.success, res.failure
-        nsteps = int(res.stats["nsteps"])
+        # der(w_rel) at the start state against MuJoCo's qacc (ball joints: the same child-frame components)
+        xs0 = cm.simulate(1e-9, n_out=2).x[0]
+        xd = np.asarray(dae.ode(0.0, xs0, np.zeros(0), np.zeros(0), dae.p_value, dae.d_value)).ravel()
+        acc = np.array([xd[names.index(f"ball{k}.w_rel[{i}]")] for k in range(n) for i in range(3)])
+        mjs = MjScene("chain", n)
+        mjs.mujoco.mj_resetData(mjs.model, mjs.data)
+        mjs.data.qpos[:], mjs.data.qvel[:] = mjs.qpos0, mjs.qvel0
+        mjs.mujoco.mj_forward(mjs.model, mjs.data)
+        dacc = float(np.max(np.abs(acc - mjs.data.qacc)))
+        acc_max = float(np.max(np.abs(mjs.data.qacc)))
+        # per-step cost: Adams (no fallback to BDF, a bounded step budget: a failed run still times its steps)
+        def run():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                return cm.simulate(CHAIN["T"], rtol=1e-8, atol=1e-8, n_out=21, method="cvodes-adams",
+                                   max_steps=SCALING_MAX_STEPS)
+        if dacc > ACC_AGREE * acc_max:          # the ODE is not the chain's: a run fails slowly (16-70 s), skip it
+            rows.append({"n": n, "construct": t1 - t0, "compile": t2 - t1, "ops": ops, "rhs_us": rhs_us, "nx": nx,
+                         "dacc": dacc, "acc_max": acc_max, "ok": False, "reached": 0.0})
+            print(f"  N={n:3d}: construct {t1 - t0:.3f} s, compile {t2 - t1:.3f} s, {ops} ops, rhs {rhs_us:.2f} µs, "
+                  f"max |der(w_rel) - MuJoCo qacc| {dacc:.1e} (of {acc_max:.0f}): simulation skipped", flush=True)
+            continue
+        s0 = time.perf_counter()
+        res = run()
+        if res.success:
+            sim, reps, res = timed_best(run)
+        else:                                  # a failed run is not repeated; its steps are not counted
+            sim = time.perf_counter() - s0
+        nsteps = int(res.stats["nsteps"]) if res.success else 0
+        reached = float(res.t[-1])
         rows.append({"n": n, "construct": t1 - t0, "compile": t2 - t1, "ops": ops, "rhs_us": rhs_us, "sim": sim,
-                     "nsteps": nsteps, "step_us": 1e6 * sim / nsteps, "nx": nx, "method": res.stats.get("method")})
+                     "nsteps": nsteps, "step_us": 1e6 * sim / max(nsteps, 1), "nx": nx, "dacc": dacc,
+                     "acc_max": acc_max, "reached": reached, "ok": res.success})
         print(f"  N={n:3d}: construct {t1 - t0:.3f} s, compile {t2 - t1:.3f} s, {ops} ops, rhs {rhs_us:.2f} µs, "
-              f"sim {sim:.3f} s / {nsteps} steps", flush=True)
+              f"max |der(w_rel) - MuJoCo qacc| {dacc:.1e} (of {acc_max:.0f}), sim {sim:.3f} s / {nsteps} steps to "
+              f"t = {reached:.3g} s{'' if res.success else ' (failed)'}", flush=True)
     return rows
 
 
@@ -448,7 +491,7 @@ def chain_scaling(ns):
 def fmt_t(t, mark):
     if t is None:
         return f"{'-':>10}"
-    return f"{mark:>2}{t * 1e3:8.2f}"
+    return f"{mark:>2}{t * 1e3:8.1f}" if t < 10 else f"{mark:>2}{t:7.1f}s"
 
 
 def report(results):
@@ -496,7 +539,8 @@ def report(results):
     print()
     print("per-run detail (setting: error, ms, steps)")
     for r in results:
-        print(f"{r['scene']} (mechnet compile {r['compile']:.3f} s, {r['ops']} ops; reference {r['ref_steps']} steps)")
+        hand = f"; hand model {r['hand_ops']} ops" if r["hand_ops"] else ""
+        print(f"{r['scene']} (mechnet compile {r['compile']:.3f} s, ODE {r['ops']} ops{hand}; reference {r['ref_steps']} steps)")
         for label, pts in r["curves"].items():
             print(f"  {label:22s} " + "; ".join(
                 f"{p[2].split()[1]} {p[1]:.1e} {p[0] * 1e3:.2f}{'*' if p[3] < REPEATS else ''} {p[4]}" for p in pts))
@@ -504,23 +548,28 @@ def report(results):
 
 
 def report_scaling(rows):
-    print("\n3D spherical chain, compile and per-step cost (rtol = atol = 1e-8, 2 s, method auto)")
+    print("\n3D spherical chain, compile and per-step cost (cvodes-adams, rtol = atol = 1e-8, 2 s, "
+          f"max_steps {SCALING_MAX_STEPS})")
     head = (f"{'N':>3} {'nx':>4} | {'construct s':>11} {'compile s':>9} {'total s':>7} | {'ODE ops':>8} {'ops/N':>6} | "
-            f"{'rhs µs':>7} {'µs/N':>5} | {'steps':>6} {'sim s':>6} {'µs/step':>8} {'µs/step/N':>9}")
+            f"{'rhs µs':>7} {'µs/N':>5} | {'steps':>6} {'t reached':>9} {'µs/step':>8} {'µs/step/N':>9} | {'d acc':>8}")
     print(head)
     print("-" * len(head))
     for r in rows:
         print(f"{r['n']:3d} {r['nx']:4d} | {r['construct']:11.3f} {r['compile']:9.3f} {r['construct'] + r['compile']:7.3f} | "
               f"{r['ops']:8d} {r['ops'] / r['n']:6.1f} | {r['rhs_us']:7.2f} {r['rhs_us'] / r['n']:5.2f} | "
-              f"{r['nsteps']:6d} {r['sim']:6.3f} {r['step_us']:8.1f} {r['step_us'] / r['n']:9.2f}")
+              + (f"{r['nsteps']:6d} {r['reached']:9.3g} {r['step_us']:8.1f} {r['step_us'] / r['n']:9.2f}" if r["ok"] else
+                 f"{'skip' if 'sim' not in r else 'failed':>6} {r['reached']:9.3g} {'-':>8} {'-':>9}") + f" | {r['dacc']:8.1e}")
     print("(rhs: cm.dae.ode.map(1000) on 1000 random states, time per point, median of 5; µs/step: simulation wall "
-          "time / CVODES steps)")
+          "time / CVODES steps,\n skip: not simulated, the ODE's accelerations differ from MuJoCo's by more than "
+          f"{ACC_AGREE:g} of the largest; failed: the run failed at t reached; d acc: max |der(w_rel) - MuJoCo qacc| at the "
+          "start state, rad/s², the largest |qacc| being " + ", ".join(f"{r['acc_max']:.0f}" for r in rows) + ")")
     if len(rows) >= 2:
         a, b = rows[0], rows[-1]
         k = math.log(b["n"] / a["n"])
         print(f"growth exponents N = {a['n']} -> {b['n']}: ops {math.log(b['ops'] / a['ops']) / k:.2f}, "
-              f"rhs {math.log(b['rhs_us'] / a['rhs_us']) / k:.2f}, µs/step {math.log(b['step_us'] / a['step_us']) / k:.2f}, "
-              f"compile {math.log(b['compile'] / a['compile']) / k:.2f}  (1 = linear)")
+              f"rhs {math.log(b['rhs_us'] / a['rhs_us']) / k:.2f}, "
+              + (f"µs/step {math.log(b['step_us'] / a['step_us']) / k:.2f}, " if a["ok"] and b["ok"] else "")
+              + f"compile {math.log(b['compile'] / a['compile']) / k:.2f}  (1 = linear)")
 
 
 def plot(results, path):
@@ -551,12 +600,20 @@ def plot(results, path):
     print(f"wrote {path}")
 
 
+_MJ_WARNINGS = []
+
+
+def _count_warning(msg):
+    _MJ_WARNINGS.append(msg)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--no-plot", action="store_true")
     args = ap.parse_args(argv)
     import mujoco
+    mujoco.set_mju_user_warning(_count_warning)   # MuJoCo's instability warnings: counted, not printed
     rtols = QUICK_RTOLS if args.quick else RTOLS
     mj_max = QUICK_MUJOCO_MAX_RUN if args.quick else MUJOCO_MAX_RUN
     t_start = time.perf_counter()
@@ -574,6 +631,7 @@ def main(argv=None):
     report_scaling(rows)
     if not args.no_plot:
         plot(results, Path(__file__).with_suffix(".png"))
+    print(f"\nMuJoCo warnings (diverged runs, marked inf): {len(_MJ_WARNINGS)}")
     print(f"\ntotal wall time {time.perf_counter() - t_start:.0f} s, load average {os.getloadavg()[0]:.2f}")
 
 

@@ -127,7 +127,13 @@ def _inward(t, tree, moving, M, bias):
                 continue
             if ej.dof > 1:
                 u_j = ej.axis_load() - ca.mtimes(Sj.T, P[j])
-                through = ca.mtimes(Ia[j], velocity_terms(t, j)) + P[j] + ca.mtimes(U[j], ca.mtimes(D_inv[j], u_j))
+                if _turns_freely(ej, Sj):            # a ball joint passes no moment, exactly
+                    A_inv, B = U[j]
+                    through = ca.mtimes(Ia[j], velocity_terms(t, j)) + ca.vertcat(
+                        ca.SX.zeros(3), P[j][3:] - ca.mtimes(B.T, ca.mtimes(A_inv, P[j][:3])))
+                else:
+                    through = ca.mtimes(Ia[j], velocity_terms(t, j)) + P[j] + \
+                        ca.mtimes(U[j], ca.mtimes(D_inv[j], u_j))
                 IA_k = IA_k + transport_inertia(Ia[j], dj)
                 p_k = p_k + transport_wrench(through, dj)
                 continue
@@ -160,8 +166,9 @@ def _inward(t, tree, moving, M, bias):
         if ca.SX(ca.dot(S, ca.mtimes(IA_k, S))).is_zero() and not getattr(e, "use_flange", False):
             raise StructureError(
                 f"joint {e.path} ({type(e).__name__}) moves no mass: nothing beyond it has mass (or inertia "
-                f"about its axis), so its acceleration is undetermined; attach a Body beyond the "
-                f"joint, or drive it through its flange (use_flange=True)")
+                f"about its axis), or a joint beyond it at the same point already gives that freedom, so its "
+                f"acceleration is undetermined; attach a Body beyond the joint, drive it through its flange "
+                f"(use_flange=True), or remove the redundant joint")
         IA[link] = IA_k = t.let(IA_k, f"{e.path}.articulated_inertia")
         U[link] = ca.mtimes(IA_k, S)
         D[link] = ca.dot(S, U[link])
@@ -196,8 +203,41 @@ def _multi_freedom(t, e, S, IA_k):
     if e.dof == 6:                                     # S is orthogonal: D⁻¹ = Sᵀ·IA⁻¹·S
         D_inv = t.let(ca.mtimes(S.T, ca.mtimes(_spatial_inverse(t, IA_k, e.path), S)), f"{e.path}.D_inv")
         return IA_k, U, D_inv, D_inv, ca.SX.zeros(6, 6)
+    if _turns_freely(e, S):
+        # S = [R_b; 0] spans every rotation about the pivot: with IA = [[A, B], [Bᵀ, M]], D⁻¹ = R_bᵀ·A⁻¹·R_b
+        # and the reduced inertia is [[0, 0], [0, M − Bᵀ·A⁻¹·B]] — its zero blocks written as zeros, not
+        # left to cancel (the round-off they left grew ~7x per link of a spherical chain)
+        A, B, M = IA_k[:3, :3], IA_k[:3, 3:], IA_k[3:, 3:]
+        A_inv = t.let(_spd_inverse(A), f"{e.path}.A_inv")
+        D_inv = t.let(ca.mtimes(S[:3, :].T, ca.mtimes(A_inv, S[:3, :])), f"{e.path}.D_inv")
+        reduced = t.let(M - ca.mtimes(B.T, ca.mtimes(A_inv, B)), f"{e.path}.reduced_mass")
+        Z = ca.SX.zeros(3, 3)
+        return IA_k, (A_inv, B), D_inv, D_inv, blocks(Z, Z, Z, reduced)
     D_inv = t.let(ca.inv(D), f"{e.path}.D_inv")       # explicit: the accelerations stay an ODE's
     return IA_k, U, D_inv, D_inv, t.let(IA_k - ca.mtimes(U, ca.mtimes(D_inv, U.T)), f"{e.path}.reduced_inertia")
+
+
+def _spd_inverse(A):
+    """The inverse of a symmetric positive definite 3x3 through its Cholesky factor L (A = L·Lᵀ,
+    A⁻¹ = L⁻ᵀ·L⁻¹): square roots of pivots instead of a cofactor expansion's cancelling products."""
+    l00 = ca.sqrt(A[0, 0])
+    l10, l20 = A[1, 0] / l00, A[2, 0] / l00
+    l11 = ca.sqrt(A[1, 1] - l10 * l10)
+    l21 = (A[2, 1] - l20 * l10) / l11
+    l22 = ca.sqrt(A[2, 2] - l20 * l20 - l21 * l21)
+    # L⁻¹ (lower triangular) by forward substitution
+    i00, i11, i22 = 1 / l00, 1 / l11, 1 / l22
+    i10 = -l10 * i00 * i11
+    i21 = -l21 * i11 * i22
+    i20 = -(l20 * i00 + l21 * i10) * i22
+    Linv = ca.vertcat(ca.horzcat(i00, 0, 0), ca.horzcat(i10, i11, 0), ca.horzcat(i20, i21, i22))
+    return ca.mtimes(Linv.T, Linv)
+
+
+def _turns_freely(e, S) -> bool:
+    """A joint whose freedoms are every rotation about one point and nothing else (S = [R; 0], 3 columns):
+    a spherical joint."""
+    return e.dof == 3 and all(ca.SX(x).is_zero() for x in ca.vertsplit(ca.vec(S[3:, :])))
 
 
 def _spatial_inverse(t, IA, name):
