@@ -70,6 +70,8 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         """Quaternion states back to unit length before an integrator call: R uses Q/|Q|, so nothing
         else changes, and the drift of |Q| cannot add up across calls (DESIGN.md, "Orientation in 3D").
         Within one call it is the integrator's error (an event-free run is one call)."""
+        if self.quaternions:
+            self.x = self.x.copy()                     # it may be a row of a piece's output: never write into it
         for index in self.quaternions:
             self.x[index] = self.x[index] / np.linalg.norm(self.x[index])
 
