@@ -61,6 +61,9 @@ class ZeroCrossing:
     direction: int
     label: str
     mode_resets: tuple = ()
+    jumps: tuple = ()            # (index in FlatSystem.modes of an Impulse, velocity, target)
+    rest: tuple = None           # mode resets (index, value) at an accumulation of these events, or None
+    at_start: bool = False       # fires at the start when already past zero in its direction
 
 
 @dataclass(frozen=True)
@@ -70,6 +73,7 @@ class FlatMode:
     name: str
     symbol: ca.SX
     start: float
+    impulse: bool = False        # an Impulse: always 0 between events, the direction a jump acts along
 
 
 @dataclass(frozen=True)

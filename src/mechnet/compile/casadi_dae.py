@@ -159,7 +159,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     algf = _fn("alg", args, alg_expr, "res")
     observed = _fn("observed", args, obs, "y")
     resolve = _without_aliases(original, survivor, aliases) if modes else None
-    zero, transitions = _events(flat, x_index, symbols, current, args, x, resolve)
+    zero, transitions, rests = _events(flat, x_index, symbols, current, args, x, resolve, ode_expr, alg_expr)
     invariants = _fn("invariants", args, inv, "c")
     x_names = tuple(variables[i].name for i in x_index)
     z_names = tuple(variables[i].name for i in z_index)
@@ -173,7 +173,9 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     info = {"alg_labels": tuple(alg_labels), "solved": len(value), "folded_parameters": flat.folded_parameters,
             "parameter_checks": {q.name: (q.declaration, q.owner) for q in flat.parameters}, "torn": len(z_index),
             "observed_only": _count_observed_only(value, depends, flat, z_index, original),
-            "nominal": nominal, "quaternions": quaternions}
+            "nominal": nominal, "quaternions": quaternions,
+            "zero_at_start": tuple(zc.at_start for zc in flat.zero_crossings), "rest_transition": rests,
+            "impulses": tuple(m.name for m in modes if m.impulse)}
     return SemiExplicitDAE(
         name=flat.name, t=t, x=x, z=z, u=u, p=p, d=d,
         x_names=x_names, z_names=z_names,
@@ -240,11 +242,33 @@ def _without_aliases(original, survivor, aliases):
     return lambda expr: ca.substitute(expr, olds, news)
 
 
-def _events(flat, x_index, symbols, current, args, x, resolve):
+def _jump(ode, alg, args, velocities, impulses):
+    """The impulse–momentum equations of the whole scene along `impulses` (Impulse modes, each added to
+    a force): an impulse P changes the states by Δx = B·P and the velocities by W·P.
+
+    B = ∂ẋ/∂λ: the accelerations' response to a force λ is the velocity jump's response to an impulse,
+    because both solve the same equations of motion with the same (constrained) mass matrix; through a
+    loop the algebraic unknowns follow by the implicit function theorem (ż = −alg_z⁻¹·alg_λ), so
+    the loop's velocity constraints still hold after the jump. Only velocity states move: nothing else
+    has a derivative that a force reaches."""
+    _, x, z = args[:3]
+    lam = ca.vertcat(*impulses)
+    B = ca.jacobian(ode, lam)
+    V = ca.jacobian(velocities, x)
+    if z.numel():
+        alg_z = ca.jacobian(alg, z)
+        B = B + ca.jacobian(ode, z) @ (-ca.solve(alg_z, ca.jacobian(alg, lam)))
+        V = V + ca.jacobian(velocities, z) @ (-ca.solve(alg_z, ca.jacobian(alg, x)))
+    return B, V @ B
+
+
+def _events(flat, x_index, symbols, current, args, x, resolve, ode=None, alg=None):
     """zero(t,x,z,u,p,d) stacks the conditions; transition[i] maps the state and the modes to their values
-    after event i (new values computed from those before it)."""
+    after event i (new values computed from those before it), through the scene's impulse–momentum
+    equations where the event makes a jump; rest[i] (or None) is the plastic jump and the mode
+    values that end an accumulation of event i's firings (a ball coming to rest)."""
     if not flat.zero_crossings:
-        return _fn("zero", args, ca.SX(0, 1), "g"), ()
+        return _fn("zero", args, ca.SX(0, 1), "g"), (), ()
     position = {s.element_hash(): i for i, s in enumerate(symbols)}
 
     def in_base(expr):
@@ -256,21 +280,44 @@ def _events(flat, x_index, symbols, current, args, x, resolve):
 
     g = flat.expand([ca.vertcat(*[in_base(zc.g) for zc in flat.zero_crossings])])[0]
     state_pos = {i: k for k, i in enumerate(x_index)}
-    transitions = []
+    d = args[5]
+
+    def jumped(zc, plastic):
+        """x after the jump of zc (x itself when it has none)."""
+        if not zc.jumps:
+            return x
+        vel = flat.expand([ca.vertcat(*[in_base(resolve(v)) for _, v, _ in zc.jumps])])[0]
+        goal = ca.DM.zeros(len(zc.jumps)) if plastic else \
+            flat.expand([ca.vertcat(*[in_base(resolve(g)) for _, _, g in zc.jumps])])[0]
+        B, W = _jump(ode, alg, args, vel, [d[k] for k, _, _ in zc.jumps])
+        return x + B @ ca.solve(W, goal - vel)
+
+    transitions, rests = [], []
     for n, zc in enumerate(flat.zero_crossings):
-        x_plus = [x[k] for k in range(x.numel())]
+        x_jumped = jumped(zc, False)
+        x_plus = [x_jumped[k] for k in range(x.numel())]
         for i, value in zc.resets:
             if i not in state_pos:
                 raise StructureError(f"{zc.label}: resets {flat.variables[i].name}, which is not a state of the "
                                      f"compiled model (it is computed from other variables); reset a state "
                                      f"({', '.join(flat.variables[j].name for j in x_index)})")
             x_plus[state_pos[i]] = in_base(value)
-        d = args[5]
-        d_plus = [d[k] for k in range(d.numel())]
-        for k, value in zc.mode_resets:
-            d_plus[k] = in_base(resolve(value))
-        out = ca.vertcat(*x_plus) if x_plus else ca.SX(0, 1)
-        out = flat.expand([out])[0]
-        d_out = flat.expand([ca.vertcat(*d_plus)])[0] if zc.mode_resets else d
-        transitions.append(ca.Function(f"transition_{n}", list(args), [out, d_out], list(ARGS), ["x_plus", "d_plus"]))
-    return _fn("zero", args, g, "g"), tuple(transitions)
+        transitions.append(_transition(f"transition_{n}", flat, args, x_plus, zc.mode_resets, in_base, resolve))
+        if zc.rest is None:
+            rests.append(None)
+        else:
+            x_rest = jumped(zc, True)
+            rests.append(_transition(f"rest_{n}", flat, args, [x_rest[k] for k in range(x.numel())], zc.rest,
+                                     in_base, resolve))
+    return _fn("zero", args, g, "g"), tuple(transitions), tuple(rests)
+
+
+def _transition(name, flat, args, x_plus, mode_resets, in_base, resolve):
+    d = args[5]
+    d_plus = [d[k] for k in range(d.numel())]
+    for k, value in mode_resets:
+        d_plus[k] = in_base(resolve(value))
+    out = ca.vertcat(*x_plus) if x_plus else ca.SX(0, 1)
+    out = flat.expand([out])[0]
+    d_out = flat.expand([ca.vertcat(*d_plus)])[0] if mode_resets else d
+    return ca.Function(name, list(args), [out, d_out], list(ARGS), ["x_plus", "d_plus"])

@@ -11,7 +11,7 @@ from dataclasses import dataclass, replace
 
 import casadi as ca
 
-from ..core.declarations import Across, Input, Output, State, Through
+from ..core.declarations import Across, Impulse, Input, Output, State, Through
 from ..core.equation import derivative_parent, time
 from ..core.errors import StructureError
 from ..core.model import Model
@@ -83,7 +83,8 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
             decl = type(comp)._declarations[key]
             parameters.append(Parameter(f"{comp.path}.{key}", sym, value, decl.unit, decl,
                                         f"{comp.path} ({ctype})"))
-        modes.extend(FlatMode(f"{comp.path}.{key}", sym, start) for key, (sym, start) in comp.modes.items())
+        modes.extend(FlatMode(f"{comp.path}.{key}", sym, start, isinstance(type(comp)._declarations[key], Impulse))
+                     for key, (sym, start) in comp.modes_in_use().items())
         for key in comp.parameter_names():
             if key not in comp.tunable:
                 folded.append(f"{comp.path}.{key}")
@@ -101,10 +102,10 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
             if not hasattr(when, "condition"):
                 raise StructureError(f"{label}, event {k + 1}: {when!r} is not a When(...)")
             whens.append((comp, k, when, label))
-        for number, element, residual, doc, smooth in comp.residuals():
+        for number, element, residual, doc, smooth, regular in comp.residuals():
             suffix = f"[{element}]" if element is not None else ""
             equations.append(FlatEquation(residual, comp.path, f"{label}, equation {number}{suffix}", doc,
-                                          smoothness=smooth))
+                                          smoothness=smooth, regular=regular))
 
     if tree is not None:
         _substitute_frames(equations, tree)
@@ -152,6 +153,29 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
             if s.element_hash() not in by_hash and s.element_hash() not in skip:
                 raise StructureError(f"{label}, event {k + 1}: the condition uses {s.name()!r}, which is "
                                      f"not a variable of the model")
+        def scalar_value(value, what):
+            value = _frames_in(ca.SX(value), tree)
+            if value.numel() != 1:
+                raise StructureError(f"{label}, event {k + 1}: {what} must be a scalar")
+            for s in ca.symvar(value):
+                if s.element_hash() not in by_hash and s.element_hash() not in skip:
+                    raise StructureError(f"{label}, event {k + 1}: {what} uses {s.name()!r}, which is not a "
+                                         f"variable of the model")
+            return value
+
+        def mode_of(target, what, impulse):
+            target = ca.SX(target)
+            h = target.element_hash() if target.is_scalar() and target.is_symbolic() else None
+            if h not in mode_at or modes[mode_at[h]].impulse != impulse:
+                raise StructureError(f"{label}, event {k + 1}: {what} must be {'an Impulse' if impulse else 'a Mode'}"
+                                     f" of the component (got {target})")
+            return mode_at[h]
+
+        jumps = tuple((mode_of(imp, "a jump's key", True), scalar_value(v, "a jump's velocity"),
+                       scalar_value(goal, "a jump's target")) for imp, (v, goal) in (when.jump or {}).items())
+        rest = None if when.rest is None else tuple(
+            (mode_of(target, "a rest target", False), scalar_value(value, f"the rest value of {target}"))
+            for target, value in when.rest.items())
         resets, mode_resets = [], []
         for target, value in (when.reset or {}).items():
             target = ca.SX(target)
@@ -176,7 +200,7 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
             raise StructureError(f"{label}, event {k + 1}: {exc}") from None
         zero_crossings.append(ZeroCrossing(g, tuple(resets), direction,
                                            f"{label}, event {k + 1}" + (f" — {when.doc}" if when.doc else ""),
-                                           tuple(mode_resets)))
+                                           tuple(mode_resets), jumps, rest, bool(when.at_start)))
 
     return FlatSystem(model.name, tuple(variables), tuple(equations), tuple(parameters), der_of, time,
                       tuple(sorted(effects.items())), time_events=tuple(sorted(time_events)),

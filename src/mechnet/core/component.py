@@ -258,13 +258,19 @@ class Component:
         """State events (`When`), for components with impacts, switches or resets."""
         return []
 
+    def modes_in_use(self) -> dict:
+        """The modes this component's equations use (all it declares; a friction element in its smooth
+        form, or with nothing to switch, uses none and so adds none to the compiled model)."""
+        return self.modes
+
     def time_events(self) -> list[tuple[float, str]]:
         """Times where a driving signal jumps or kinks, with what causes them."""
         return [(float(t), f"{self.path}.{key}: {sig!r}") for key, sig in self.signals.items()
                 for t in sig.events()]
 
     def residuals(self) -> list[tuple[int, int, ca.SX, str]]:
-        """Scalar residuals: (equation number, element or None if scalar, expression, doc, smoothness)."""
+        """Scalar residuals: (equation number, element or None if scalar, expression, doc, smoothness,
+        regular)."""
         out = []
         label = f"{self.path} ({type(self).__name__})"
         produced = self.equations()
@@ -273,9 +279,11 @@ class Component:
                                  f"(a missing return statement?)")
         equations = list(produced)
         smooth = [float("inf")] * len(equations)
+        regular = [isinstance(eq, Eq) and eq.regular for eq in equations]
         for key, sig in self.signals.items():
             equations.append(Eq(self._values[key], sig.expr(time), f"{key} driven by {sig!r}"))
             smooth.append(float(getattr(sig, "smoothness", float("inf"))))
+            regular.append(False)
         for k, eq in enumerate(equations):
             doc = eq.doc if isinstance(eq, Eq) else ""
             try:
@@ -292,7 +300,7 @@ class Component:
                                      f"(did you write `==` instead of Eq(lhs, rhs)?)")
             res = ca.reshape(res, -1, 1)
             for i in range(res.numel()):
-                out.append((k + 1, i if res.numel() > 1 else None, res[i], doc, smooth[k]))
+                out.append((k + 1, i if res.numel() > 1 else None, res[i], doc, smooth[k], regular[k]))
         return out
 
     def __repr__(self):

@@ -196,6 +196,15 @@ class Mode(Declaration):
         self.start = finite_number(start, "Mode start", StructureError)
 
 
+class Impulse(Mode):
+    """The direction along which an event's `jump` acts (unit 1, always 0 between events). Add it to
+    the force the component transmits (`f = ... + impulse`); the compiler differentiates the whole
+    scene's accelerations along it to find the velocity jump an impulse there causes."""
+
+    def __init__(self, *, doc: str = ""):
+        super().__init__(0.0, doc=doc or "carrier of the impact impulse (0 between events)")
+
+
 class Flag(Declaration):
     """A structural yes/no choice made at construction (`use_flange=True`); it can switch ports on."""
 

@@ -82,11 +82,19 @@ def der(expr: Expr) -> ca.SX:
 
 @dataclass(frozen=True)
 class Eq:
-    """`lhs = rhs`, kept as the residual `lhs - rhs`; `doc` says what the equation states."""
+    """`lhs = rhs`, kept as the residual `lhs - rhs`; `doc` says what the equation states.
+
+    `regular=True` promises that the equation's coefficients on its unknowns never make the system
+    singular, whatever the modes: a friction element's path form (stuck: a = 0, f = sa; sliding:
+    a = sa − f₀, f = f(v)) has coefficients that switch with the mode, yet each mode is solvable. The
+    compiler may then solve its block symbolically, modes and all, instead of leaving it to the
+    integrator's Newton iteration.
+    """
 
     lhs: Expr
     rhs: Expr = 0.0
     doc: str = ""
+    regular: bool = False
 
     def residual(self) -> ca.SX:
         return ca.SX(self.lhs) - ca.SX(self.rhs)
@@ -103,12 +111,25 @@ class When:
     just before the event (a bouncing ball: `{self.v: -self.e * self.v}`; a relay:
     `{self.on: 1.0}`).
     `direction`: "falling" (+ to −), "rising" (− to +) or "both".
+    `jump` maps an `Impulse` of the component to (velocity, target): the impulse along it that makes
+    the velocity expression equal the target (evaluated before the event) is applied to the *whole*
+    scene through its impulse–momentum equations, so an impact on one link changes every link
+    consistently (`{self.impulse: (self.v_rel, -self.e * self.v_rel)}`). Several impulses in one
+    `jump` are solved together.
+    `rest` maps modes to their values when the events of this condition accumulate (a Zeno point:
+    a ball bouncing ever lower): the jump is then made plastic (targets 0) and these modes set, and the
+    run goes on instead of stopping.
+    `at_start=True`: a condition already past zero in its direction at the start fires there (a
+    friction element that starts stuck but is pushed beyond its static limit breaks away at once).
     """
 
     condition: Expr
     reset: dict = None
     direction: object = "both"
     doc: str = ""
+    jump: dict = None
+    rest: dict = None
+    at_start: bool = False
 
     def __post_init__(self):
         """Checked where it is written (the component's events()), not deep in flatten as a CasADi error."""
@@ -116,9 +137,12 @@ class When:
                                                                                               int, float)):
             raise StructureError(f"When: condition {self.condition!r} must be an expression of the component's "
                                  f"variables (such as self.h), not {type(self.condition).__name__}")
-        if self.reset is not None and not isinstance(self.reset, dict):
-            raise StructureError(f"When: reset takes a mapping {{state: new value}}, got "
-                                 f"{type(self.reset).__name__}")
+        for what, value in (("reset", self.reset), ("rest", self.rest), ("jump", self.jump)):
+            if value is not None and not isinstance(value, dict):
+                raise StructureError(f"When: {what} takes a mapping, got {type(value).__name__}")
+        for impulse, pair in (self.jump or {}).items():
+            if not (isinstance(pair, tuple) and len(pair) == 2):
+                raise StructureError(f"When: jump maps an Impulse to (velocity, target), got {pair!r}")
 
     def sign(self) -> int:
         if not isinstance(self.direction, (str, int)) or self.direction not in _DIRECTIONS:

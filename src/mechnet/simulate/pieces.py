@@ -43,6 +43,7 @@ class MonitoredPieces:
         more than MAX_PIECE_POINTS points the piece ends earlier, inside an output interval if need be.
         """
         n_int = grid.size - 1
+        self._time_event_times = frozenset(event_at)
         longest = n_int
         per_piece = 1
         density = 4                                   # monitor points per output interval
@@ -184,6 +185,8 @@ class MonitoredPieces:
             k = int(np.searchsorted(grid, t_cur, side="right")) - 1
             if t_cur == grid[k] and k > 0 and grid[k] in event_at:
                 self._restart_at(grid[k], event_at[grid[k]])
+                if self.failure is not None:
+                    return
             if switch_at is not None:
                 self._reselect(t_cur)
                 # a switch cut the piece: what came after it was wasted, so aim shorter next time

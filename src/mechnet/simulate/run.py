@@ -363,6 +363,7 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
             self.z = solve_algebraic(self.dae, t, self.x, self.z, self._u_at(t), self.p, self.d)
             self.Z[-1] = self.z.copy()
         self.events.append(Event(float(t), "time", cause))
+        self._after_time_event(t)
 
     def _recover(self, points, message, keep=None):
         """Keep what can be integrated before the failure, with few restarts, then close in on it.

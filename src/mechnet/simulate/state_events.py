@@ -207,6 +207,30 @@ class StateEvents:
         out = np.asarray(zero_rates(self.dae)(t, x, z, self._u_at(t), self.p, self.d)).ravel()
         return out.reshape(3, -1)
 
+    def _left_of_time_events(self, pts):
+        """A piece ending at a time event is judged by its conditions' left limits there (a clutch
+        engaged by a step at 0.5 s makes a brake's condition jump *at* 0.5 s, which is no crossing
+        before it); the jump itself is looked at by `_after_time_event`."""
+        times = getattr(self, "_time_event_times", ())
+        if not times or pts.size < 2 or pts[-1] not in times:
+            return pts
+        out = pts.copy()
+        out[-1] = np.nextafter(pts[-1], -np.inf)
+        return out
+
+    def _after_time_event(self, t):
+        """At a time event (inputs and signals jump, states do not): conditions the jump threw across,
+        in their direction, fire at that instant; the others are re-armed on their new sides."""
+        if not self.dae.zero_labels or self._armed is None:
+            return
+        sides, on, _ = self._sides(t, self._rates(t, self.x, self.z))
+        dirs = np.array(self.dae.zero_directions)
+        thrown = np.flatnonzero(_allowed(dirs, self._armed, sides) & ~on).tolist()
+        if thrown:
+            self._fire(t, self.x, self.z, [int(h) for h in thrown])
+        else:
+            self._armed, self._armed_at = sides, t
+
     def _tol_t(self, t):
         return 1e-12 * max(1.0, abs(t))
 
@@ -236,6 +260,11 @@ class StateEvents:
         sides, on, _ = self._sides(t, self._rates(t, self.x, self.z))
         self._armed, self._armed_at = sides, t
         now = self._crossing_now(sides, on)
+        # a condition marked at_start that is already past zero in its direction fires now (a friction
+        # element started stuck beyond its static limit breaks away at once)
+        dirs = np.array(self.dae.zero_directions)
+        at_start = np.array(self.dae.info.get("zero_at_start", ()) or [False] * len(sides), dtype=bool)
+        now = sorted(set(now) | set(np.flatnonzero(at_start & ~on & (dirs != 0) & (sides == dirs)).tolist()))
         if now:
             self._fire(t, self.x, self.z, now)
         return self.failure is None
@@ -272,7 +301,8 @@ class StateEvents:
         n = pts.size if limit is None else limit + 1
         U = self._inputs_at(pts[:n])
         rates = mapped_in(self.dae.info.setdefault("_zero_rate_maps", {}), zero_rates(self.dae), n)
-        R = rates(pts[:n].reshape(1, -1), xs[:n].T, zs[:n].T, U, np.tile(self.p.reshape(-1, 1), n),
+        R = rates(self._left_of_time_events(pts[:n]).reshape(1, -1), xs[:n].T, zs[:n].T, U,
+                  np.tile(self.p.reshape(-1, 1), n),
                   np.tile(self.d.reshape(-1, 1), n))[0]
         m = len(self.dae.zero_labels)
         G, D = R[:m].T, R[m: 2 * m].T                   # (n, m)
@@ -461,7 +491,20 @@ class StateEvents:
         self._accumulation(t_e, fired[0], f"more than {MAX_CASCADE} rounds of firings at the same instant")
 
     def _accumulation(self, t, i, why):
+        """Events of condition i accumulate at t: end them through its rest transition (a plastic jump
+        and the rest modes: a ball comes to rest and the run goes on), or stop the run."""
         label = self.dae.zero_labels[i]
+        rests = self.dae.info.get("rest_transition", ())
+        if i < len(rests) and rests[i] is not None:
+            u_t = self._u_at(t)
+            x_plus, d_plus = rests[i](t, self.x, self.z, u_t, self.p, self.d)
+            self.x, self.d = np.asarray(x_plus, dtype=float).ravel(), np.asarray(d_plus, dtype=float).ravel()
+            self.z = solve_algebraic(self.dae, t, self.x, self.z, u_t, self.p, self.d)
+            self._record_at(t, self.x, self.z)
+            self.events.append(Event(float(t), "rest", f"{label} — {why}"))
+            self._armed, _, _ = self._sides(t, self._rates(t, self.x, self.z))
+            self._armed_at = t
+            return
         self.failure = IntegrationError(
             f"event accumulation at t = {t:.9g} s: {label} — {why} (chattering or a Zeno point such as a "
             f"bouncing ball coming to rest); the result holds the solution up to there",

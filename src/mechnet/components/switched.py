@@ -1,0 +1,207 @@
+"""Switched 1D elements in the path form: friction that sticks, stops that hold, freewheels.
+
+Every element here relates a relative motion (position s, velocity v, acceleration a) to the force f
+it transmits. Its discrete `mode` picks which of the two is given: held (stuck, resting on a stop,
+freewheel locked) means a = 0 and f free; moving (sliding, free flight) means f given and a free.
+Both are written with one extra unknown, the path parameter `sa` (Modelica Standard Library's
+friction formulation): held: a = 0, f = sa; sliding forward: a = sa − f_static, f = f_kinetic(v); free:
+a = sa, f = 0. No mode divides by zero, the equations keep one structure (`Eq(..., regular=True)`:
+the compiler solves them symbolically with the mode inside), and at each switch sa is continuous, so
+the events that decide the next mode read it directly:
+
+- held → moving when the force needed to hold (sa) passes the static limit (friction), or would pull
+  (a stop: contact forces only push);
+- moving → held when v crosses 0 (friction sticking; a freewheel locking) or the gap closes slowly
+  enough to rest. The velocity is then made exactly 0 by a plastic jump through the whole scene's
+  impulse–momentum equations (`When.jump`): what the event location leaves (~1e-12) does not creep.
+
+An impact (a closing gap) is a jump v → −e·v along the element's `Impulse`, solved for the whole scene
+(`compile/casadi_dae.py`, `_jump`). Events of a stop that accumulate (a ball bouncing ever lower) end in
+its rest mode (`When.rest`).
+
+`smooth=True`, or compiling inside `smooth_friction()`, gives friction its regularised form instead:
+f = f_kinetic(|v|)·v/√(v² + v_smooth²), no modes, no events, differentiable everywhere (what an
+optimiser needs). Its price is creep: held by a force F below the Coulomb level F_C, the element
+slides at the steady speed v = v_smooth·F/√(F_C² − F²) instead of sticking.
+"""
+from __future__ import annotations
+
+from contextlib import contextmanager
+from contextvars import ContextVar
+
+import casadi as ca
+
+from ..core.equation import Eq, When, der
+from ..core.errors import ParameterError
+
+HELD, FORWARD, BACKWARD = 0.0, 1.0, -1.0
+
+_SMOOTH: ContextVar[bool] = ContextVar("smooth_friction", default=False)
+
+
+@contextmanager
+def smooth_friction():
+    """Models compiled inside this block give every friction element its regularised form (the
+    optimal-control layer compiles this way by itself)."""
+    token = _SMOOTH.set(True)
+    try:
+        yield
+    finally:
+        _SMOOTH.reset(token)
+
+
+def smoothing_everywhere() -> bool:
+    return _SMOOTH.get()
+
+
+def relative_motion(position):
+    """(v, a) of a relative position written through the flanges, so the connected bodies' states
+    carry the derivatives (as the dampers do)."""
+    v = der(position)
+    return v, der(v)
+
+
+def kinetic(speed, coulomb, viscous, stribeck, v_stribeck):
+    """The sliding force at |v| = speed: Coulomb + viscous·|v| + Stribeck·exp(−|v|/v_Stribeck). With
+    v_Stribeck = 0 the static excess holds only at rest: the force drops to Coulomb as it slides."""
+    force = coulomb + viscous * speed
+    if not (isinstance(v_stribeck, (int, float)) and v_stribeck == 0):
+        force = force + stribeck * ca.exp(-speed / v_stribeck)
+    return force
+
+
+def friction_equations(v, a, f, sa, mode, impulse, f_kinetic, f_static):
+    """Path form of friction: stuck a = 0, f = sa; sliding a = sa ∓ f_static, f = ±f_kinetic(|v|).
+    `impulse` adds to f (0 between events: the direction of the sticking jump)."""
+    stuck = mode == HELD
+    return [Eq(a, ca.if_else(stuck, 0.0, sa - mode * f_static), "relative acceleration on the friction path",
+               regular=True),
+            Eq(f, ca.if_else(stuck, sa, mode * f_kinetic) + impulse, "friction force on the friction path",
+               regular=True)]
+
+
+def friction_events(v, sa, mode, impulse, f_static, v_small, name):
+    """Break away (at the start too, when already pushed past the limit), stick with a plastic jump, and
+    start sliding when the run begins with the surfaces moving (|v| > v_small)."""
+    stuck = mode == HELD
+    return [When(ca.if_else(stuck, ca.fabs(sa) - f_static, -1.0), reset={mode: ca.sign(sa)},
+                 direction="rising", at_start=True, doc=f"{name} breaks away"),
+            When(ca.if_else(stuck, 1.0, mode * v), reset={mode: HELD}, jump={impulse: (v, 0.0)},
+                 direction="falling", doc=f"{name} sticks"),
+            When(ca.if_else(stuck, ca.fabs(v) - v_small, -1.0), reset={mode: ca.sign(v)},
+                 direction="rising", at_start=True, doc=f"{name} starts sliding")]
+
+
+def smooth_friction_force(v, f_kinetic_at_speed, v_smooth):
+    """The regularised force: f_kinetic(|v|)·v/√(v² + v_smooth²)."""
+    return f_kinetic_at_speed * v / ca.sqrt(v * v + v_smooth * v_smooth)
+
+
+def contact_equations(a, f, sa, mode, impulse):
+    """Path form of a unilateral contact: resting (mode ±1) a = 0, f = sa; free (0) a = sa, f = 0."""
+    free = mode == 0
+    return [Eq(a, ca.if_else(free, sa, 0.0), "relative acceleration on the contact path", regular=True),
+            Eq(f, ca.if_else(free, 0.0, sa) + impulse, "contact force on the contact path", regular=True)]
+
+
+def impact_event(gap, v, e, v_rest, mode, side, impulse, name, what):
+    """`gap` (≥ 0 while apart) closing: v → −e·v through the whole scene, or rest (mode := side, v → 0)
+    when the approach is slower than v_rest or the impacts accumulate. `side` is +1 at an upper limit
+    (contact pushes the b side back: f > 0), −1 at a lower one."""
+    resting = ca.fabs(v) <= v_rest
+    return When(ca.if_else(mode == 0, gap, 1.0), direction="falling",
+                reset={mode: ca.if_else(resting, side, 0.0)},
+                jump={impulse: (v, ca.if_else(resting, 0.0, -e * v))},
+                rest={mode: side}, doc=f"{name} {what}")
+
+
+def release_event(sa, mode, name):
+    """A resting contact lets go when the force it needs to hold would pull (side·sa falls through 0)."""
+    return When(ca.if_else(mode == 0, 1.0, mode * sa), reset={mode: 0.0}, direction="falling",
+                doc=f"{name} lets go")
+
+
+def value_of(component, key):
+    """A parameter's number, tunable or folded (for checks made at construction)."""
+    return component.tunable[key][1] if key in component.tunable else component._values[key]
+
+
+def folded_zero(component, key) -> bool:
+    return key not in component.tunable and component._values[key] == 0
+
+
+class SwitchedFriction:
+    """Mixin of the friction elements: equations, events and form (switched, smooth or absent) from
+    four hooks: `_flow()` the transmitted force or torque, `_position()` the relative position,
+    `_characteristic()` → (Coulomb, viscous, Stribeck, v_Stribeck), `_coefficient_keys()` the parameters
+    whose all being folded zeros makes the element absent."""
+
+    def _inert(self) -> bool:
+        return all(folded_zero(self, k) for k in self._coefficient_keys())
+
+    def _smooth_form(self) -> bool:
+        return bool(self.smooth) or smoothing_everywhere()
+
+    def form(self) -> str:
+        """'absent' (nothing to switch: f = 0), 'smooth' (regularised) or 'switched' (modes and events)."""
+        return "absent" if self._inert() else ("smooth" if self._smooth_form() else "switched")
+
+    def modes_in_use(self) -> dict:
+        return self.modes if self.form() == "switched" else {}
+
+    def _static_limit(self):
+        coulomb, _, stribeck, _ = self._characteristic()
+        return coulomb + stribeck
+
+    def switched_equations(self):
+        v, a = relative_motion(self._position())
+        out = [Eq(self.v_rel, v, "relative velocity"), Eq(self.a_rel, a, "relative acceleration")]
+        form = self.form()
+        if form == "absent":
+            return out + [Eq(self._flow(), 0.0, "no friction"), Eq(self.sa, 0.0, "no friction path")]
+        coulomb, viscous, stribeck, v_stribeck = self._characteristic()
+        force = kinetic(ca.fabs(self.v_rel), coulomb, viscous, stribeck, v_stribeck)
+        if form == "smooth":
+            return out + [Eq(self._flow(), smooth_friction_force(self.v_rel, force, self.v_smooth),
+                             "regularised friction"), Eq(self.sa, 0.0, "no friction path")]
+        return out + friction_equations(self.v_rel, self.a_rel, self._flow(), self.sa, self.mode, self.impulse,
+                                        force, self._static_limit())
+
+    def events(self):
+        if self.form() != "switched":
+            return []
+        return friction_events(self.v_rel, self.sa, self.mode, self.impulse, self._static_limit(), self.v_small,
+                               self.name)
+
+
+class SwitchedStop:
+    """Mixin of the stops and rigid contacts: free between limits, impacts with restitution e, resting
+    against a limit. Hooks: `_flow()`, `_position()`, `_limits()` → (lower or None, upper or None)."""
+
+    def check(self):
+        e = value_of(self, "e")
+        if not 0.0 <= e <= 1.0:
+            raise ParameterError(f"{self.name} ({type(self).__name__}): coefficient of restitution e = {e} "
+                                 f"must lie in [0, 1] (0 plastic, 1 elastic)")
+        lower, upper = self._limit_keys()
+        if lower and upper and value_of(self, lower) >= value_of(self, upper):
+            raise ParameterError(f"{self.name} ({type(self).__name__}): limits reversed: {lower} = "
+                                 f"{value_of(self, lower)} must be below {upper} = {value_of(self, upper)}")
+
+    def equations(self):
+        v, a = relative_motion(self._position())
+        return self.compliant_equations() + [Eq(self.v_rel, v, "relative velocity"),
+                                             Eq(self.a_rel, a, "relative acceleration")] + \
+            contact_equations(self.a_rel, self._flow(), self.sa, self.mode, self.impulse)
+
+    def events(self):
+        lower, upper = self._limit_keys()
+        rel = self._position()
+        out = []
+        if upper:
+            out.append(impact_event(getattr(self, upper) - rel, self.v_rel, self.e, self.v_rest, self.mode, 1.0,
+                                    self.impulse, self.name, f"hits {upper}"))
+        if lower:
+            out.append(impact_event(rel - getattr(self, lower), -self.v_rel, self.e, self.v_rest, self.mode,
+                                    -1.0, self.impulse, self.name, f"hits {lower}"))
+        return out + [release_event(self.sa, self.mode, self.name)]
