@@ -385,3 +385,39 @@ def cascade(x0=0.3) -> mn.Model:
     m = mn.Model("cascade")
     m.add(Cascade(name="c", x_start=x0))
     return m
+
+
+def stick_slip_block(push=5.0, c=10.0, mu_k=0.2, mu_s=0.3, name="stick_slip") -> mn.Model:
+    """A 1 kg block on a spring (c to a wall) pushed by a constant force on a surface with friction
+    (normal force 9.81 N): pushed past the static limit from the start, it breaks away at t = 0 and
+    sticks again after half a period, π/√c s."""
+    from mechnet.components import translational as tr
+    m = mn.Model(name)
+    mass = m.add(tr.Mass(name="mass", m=1.0, s_start=0.0, v_start=0.0))
+    wall = m.add(tr.Fixed(name="wall"))
+    spring = m.add(tr.Spring(name="spring", c=c))
+    force = m.add(tr.ConstantForce(name="push", f_constant=push))
+    ground = m.add(tr.Fixed(name="ground"))
+    fr = m.add(tr.Friction(name="fr", fn=9.81, mu_k=mu_k, mu_s=mu_s))
+    m.connect(wall.flange, spring.flange_a)
+    m.connect(spring.flange_b, mass.flange_a)
+    m.connect(force.flange, mass.flange_b)
+    m.connect(ground.flange, fr.flange_a)
+    m.connect(fr.flange_b, mass.flange_b)
+    return m
+
+
+def stopped_oscillator(e=0.7, limit=0.05, name="stopped_oscillator") -> mn.Model:
+    """A 1 kg mass on a spring (100 N/m) between hard stops at ±limit, started at 0.04 m with 1 m/s:
+    it rebounds off both stops with restitution e."""
+    from mechnet.components import translational as tr
+    m = mn.Model(name)
+    mass = m.add(tr.Mass(name="mass", m=1.0, s_start=0.04, v_start=1.0))
+    wall = m.add(tr.Fixed(name="wall"))
+    spring = m.add(tr.Spring(name="spring", c=100.0))
+    stop = m.add(tr.HardStop(name="stop", s_min=-limit, s_max=limit, e=e))
+    m.connect(wall.flange, spring.flange_a)
+    m.connect(spring.flange_b, mass.flange_a)
+    m.connect(wall.flange, stop.flange_a)
+    m.connect(stop.flange_b, mass.flange_b)
+    return m

@@ -15,7 +15,7 @@ import mechnet as mn
 from mechnet.export import compiler
 from mechnet.export.model_description import fmi_name
 from mechnet.scene import load_scene
-from models import bouncing_ball, cartesian_pendulum
+from models import bouncing_ball, cartesian_pendulum, stick_slip_block, stopped_oscillator
 
 fmpy = pytest.importorskip("fmpy", reason="fmpy (extra 'test') checks FMUs")
 from fmpy import extract, read_model_description, simulate_fmu  # noqa: E402
@@ -28,6 +28,8 @@ SCENES = {
     "four_bar": lambda: load_scene(EXAMPLES / "four_bar.py").build().compile(),     # loop equations inside
     "drive_line": lambda: load_scene(EXAMPLES / "drive_line.py").build().compile(),  # a torque step: time event
     "bouncing_ball": lambda: bouncing_ball().compile(),                                # state events
+    "stick_slip": lambda: stick_slip_block().compile(),          # friction modes, breaking away at the start
+    "stopped_oscillator": lambda: stopped_oscillator().compile(),  # impacts through the impulse carrier
 }
 
 
@@ -112,6 +114,12 @@ def test_fmpy_simulation_matches_native(built, name, fmi):
             assert np.min(np.abs(event_times - ti)) < 1e-6
     if name == "drive_line":
         assert np.min(np.abs(event_times - 0.5)) < 1e-12
+    if name in ("stick_slip", "stopped_oscillator"):
+        # every mode switch and impact of the native run is an event of the FMU, within 1e-6 s
+        switches = [e.t for e in native.events if e.kind == "state"]
+        assert len(switches) >= 2
+        for ti in switches:
+            assert np.min(np.abs(np.r_[0.0, event_times] - ti)) < 1e-6
 
 
 @pytest.mark.parametrize("name,fmi", [(n, f) for n in ("double_pendulum", "four_bar") for f in (2, 3)])

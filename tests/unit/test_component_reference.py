@@ -40,13 +40,16 @@ def variable_of(cls, key: str):
     return None
 
 
-def required_value(decl: Param):
-    """A value every library check accepts (> 0, non-zero, not the zero vector) in the declared shape."""
+def required_value(decl: Param, key: str = ""):
+    """A value every library check accepts (> 0, non-zero, not the zero vector, a lower limit below its
+    upper one) in the declared shape."""
+    if key.endswith("_min"):
+        return -1.0
     return 1.0 if decl.shape == 1 else [1.0, 0.0, 0.0]
 
 
 def required_arguments(cls) -> dict:
-    return {k: required_value(d) for k, d in cls._declarations.items() if isinstance(d, Param) and d.default is None}
+    return {k: required_value(d, k) for k, d in cls._declarations.items() if isinstance(d, Param) and d.default is None}
 
 
 def sample_arguments(cls) -> dict:
@@ -59,7 +62,7 @@ def sample_arguments(cls) -> dict:
         elif isinstance(cls._declarations.get(key), Flag):
             args[key] = True
         elif p.default is inspect.Parameter.empty:
-            args[key] = required_value(cls._declarations[key])
+            args[key] = required_value(cls._declarations[key], key)
         else:
             args[key] = p.default
     return args

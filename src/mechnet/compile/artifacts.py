@@ -109,6 +109,7 @@ class FlatSystem:
     intermediates: tuple = ((), ())  # (symbols, definitions): state-only quantities the equations share
     modes: tuple = ()             # FlatMode: discrete variables, the DAE's d
     unit_quaternions: tuple = ()  # (what, names): quaternion states, renormalised at restarts, |Q| − 1 watched
+    switched: tuple = ()          # (path, type, form) of each component with modes: friction, stops, relays
 
     def expand(self, exprs: list) -> list:
         """`exprs` with the intermediates replaced by their definitions (sharing kept: one pass)."""

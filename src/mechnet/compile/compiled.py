@@ -32,7 +32,7 @@ class CompiledModel:
         of its expressions: plain pickle refuses SX ("Cannot pickle SX objects without a casadi
         context"), and one context for the whole model keeps the expressions' shared nodes shared.
         Integrators and other selections are rebuilt on demand in the receiving process."""
-        state = {k: v for k, v in self.__dict__.items() if k not in ("_integrators", "_selections")}
+        state = {k: v for k, v in self.__dict__.items() if k not in ("_integrators", "_selections", "_source")}
         with BUILD_LOCK, ca.global_pickle_context():
             return {"casadi": pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL),
                     "integrators_per_thread": self._integrators.size}
@@ -42,6 +42,20 @@ class CompiledModel:
             self.__dict__.update(pickle.loads(packed["casadi"]))
         self._integrators = PerThread(packed["integrators_per_thread"])
         self._selections = {}
+
+    def smoothed(self):
+        """(compiled model, names): this model with every switched friction element in its smooth form
+        (compiled again; what an optimiser needs), or (self, ()) when there is none. A model that crossed
+        a process boundary has no source to compile again: (self, ())."""
+        source = getattr(self, "_source", None)
+        names = tuple(path for path, _, form in self.stages["flat"].switched if form == "switched"
+                      and hasattr(_component(source, path), "form")) if source is not None else ()
+        if not names:
+            return self, ()
+        from ..components.switched import smooth_friction
+        from .pipeline import compile_model
+        with smooth_friction():
+            return compile_model(source, self.options), names
 
     @property
     def dae(self) -> SemiExplicitDAE:
@@ -137,9 +151,29 @@ class CompiledModel:
              if flat.multibody is not None else []) + [
             f"  {loop.summary()}" for loop in (flat.multibody.loops if flat.multibody is not None else [])] + [
             f"  cost: {d.ode.n_instructions()} instructions in ode, {d.alg.n_instructions()} in alg",
+        ] + self._switched_lines() + [
             "  compile time: " + ", ".join(f"{k} {v * 1e3:.1f} ms" for k, v in self.timings.items()),
         ]
         return "\n".join(lines)
+
+    def _switched_lines(self) -> list:
+        """What each friction element, stop, contact or relay adds: its form, modes, zero-crossing
+        functions, and the instructions of its conditions and event transitions."""
+        flat, d = self.stages["flat"], self.dae
+        if not flat.switched:
+            return []
+        g = d.zero(*d.zero.sx_in()) if d.zero_labels else None
+        lines = [f"  switched elements ({len(flat.switched)}):"]
+        for path, ctype, form in flat.switched:
+            modes = [n for n in d.d_names if n.startswith(path + ".")]
+            rows = [k for k, label in enumerate(d.zero_labels) if label.startswith(f"{path} (")]
+            cost = 0
+            if rows:
+                cost = ca.Function("g", d.zero.sx_in(), [ca.vertcat(*[g[k] for k in rows])], {"cse": True})\
+                    .n_instructions() + sum(d.transition[k].n_instructions() for k in rows)
+            lines.append(f"    {path} ({ctype}, {form}): {len(modes)} modes, {len(rows)} zero-crossing functions, "
+                         f"{cost} instructions in its conditions and transitions")
+        return lines
 
     def _index_line(self) -> str:
         index = self.stages.get("index")
@@ -162,3 +196,7 @@ class CompiledModel:
         """Steady state (or the inputs that hold one); see `mechnet.linear.trim`."""
         from ..linear import trim
         return trim(self, **kw)
+
+
+def _component(model, path):
+    return next((c for c in model.components() if c.path == path), None)

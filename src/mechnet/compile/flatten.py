@@ -202,12 +202,14 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
                                            f"{label}, event {k + 1}" + (f" — {when.doc}" if when.doc else ""),
                                            tuple(mode_resets), jumps, rest, bool(when.at_start)))
 
+    switched = tuple((comp.path, type(comp).__name__, comp.form() if hasattr(comp, "form") else "switched")
+                     for comp in components if comp.modes)
     return FlatSystem(model.name, tuple(variables), tuple(equations), tuple(parameters), der_of, time,
                       tuple(sorted(effects.items())), time_events=tuple(sorted(time_events)),
                       folded_parameters=tuple(folded), zero_crossings=tuple(zero_crossings),
                       multibody=tree, observed_only=tuple(tree.observed) if tree is not None else (),
                       intermediates=tree.intermediates if tree is not None else ((), ()), modes=tuple(modes),
-                      unit_quaternions=_unit_quaternions(components))
+                      unit_quaternions=_unit_quaternions(components), switched=switched)
 
 
 def _unit_quaternions(components) -> tuple:

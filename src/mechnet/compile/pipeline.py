@@ -59,4 +59,6 @@ def compile_model(model, options: CompileOptions | None = None):
     model.freeze()
     stages = {"flat": flat, "simplified": simplified, "aliases": aliases, "reduced": reduced, "index": index,
               "structure": structure, "dae": dae}
-    return CompiledModel(model.name, stages, timings, options)
+    cm = CompiledModel(model.name, stages, timings, options)
+    cm._source = model                 # to compile again in another form (the OCP's smooth friction)
+    return cm

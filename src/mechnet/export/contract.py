@@ -201,7 +201,9 @@ def metadata(cm, dae, starts: list, verdict: dict) -> dict:
         "starts": [{"name": n, "value": float(v)} for n, v in starts],
         "declared_starts": [{"name": n, "value": float(v)} for n, v in dae.starts.items()],
         "guesses": {n: float(v) for n, v in dae.guesses.items()},
-        "zero": [{"label": lab, "direction": int(s)} for lab, s in zip(dae.zero_labels, dae.zero_directions)],
+        "zero": [{"label": lab, "direction": int(s), "at_start": bool(a)} for lab, s, a in
+                 zip(dae.zero_labels, dae.zero_directions,
+                     dae.info.get("zero_at_start", ()) or [False] * len(dae.zero_labels))],
         "time_events": [[float(tt), str(cause)] for tt, cause in dae.time_events],
         "invariants": list(dae.invariant_names),
         "quaternions": [list(index) for index in dae.info.get("quaternions", ())],   # x indices, renormalised

@@ -116,6 +116,7 @@ def model_data(meta: dict, variables: list, ident: str, n_transitions: int, fmi:
     out += _c_array("double", "mn_x_nominal", (v["nominal"] for v in meta["x"]))
     out += _c_array("double", "mn_time_events", sorted({t for t, _ in meta["time_events"]}))
     out += _c_array("int", "mn_zero_direction", (e["direction"] for e in meta["zero"]))
+    out += _c_array("int", "mn_zero_at_start", (int(e.get("at_start", False)) for e in meta["zero"]))
     out += (f"static const char *const mn_zero_labels[{max(len(meta['zero']), 1)}] = "
             f"{{{', '.join(_c_string(e['label']) for e in meta['zero']) or '0'}}};\n")
     for name, values in (("kind", kind), ("index", index), ("set", setter), ("set_index", set_index),

@@ -83,7 +83,8 @@ def _dae(record: dict, fns: dict) -> SemiExplicitDAE:
     info = {"alg_labels": tuple(record["alg_labels"]), "folded_parameters": tuple(record["folded_parameters"]),
             "nominal": {v["name"]: v["nominal"] for v in record["observed"]}, "parameter_checks": checks,
             "solved": 0, "torn": len(record["z"]), "observed_only": 0,
-            "quaternions": tuple(tuple(index) for index in record.get("quaternions", ()))}
+            "quaternions": tuple(tuple(index) for index in record.get("quaternions", ())),
+            "zero_at_start": tuple(bool(e.get("at_start", False)) for e in record["zero"])}
     return SemiExplicitDAE(
         name=record["name"], t=t, x=x, z=z, u=u, p=p, d=d,
         x_names=names["x"], z_names=names["z"], u_names=names["u"], p_names=names["p"], d_names=names["d"],

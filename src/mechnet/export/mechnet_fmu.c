@@ -417,10 +417,15 @@ static int enter_event_mode(Instance *m) {
 }
 
 static int exit_init(Instance *m) {
-    int st = ensure_init(m);
+    int k, st = ensure_init(m);
     if (st != ST_OK) return st;
     if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
     arm(m);
+    /* a condition marked at_start that is already past zero in its direction (a friction element
+     * pushed beyond its static limit from the start) fires in the first event update */
+    for (k = 0; k < MN_NG; k++)
+        if (mn_zero_at_start[k] && mn_zero_direction[k] && m->g[k] * mn_zero_direction[k] > 0)
+            m->armed[k] = -mn_zero_direction[k];
     return enter_event_mode(m);
 }
 

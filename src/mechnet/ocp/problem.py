@@ -57,6 +57,9 @@ class Problem:
         from ..compile.compiled import CompiledModel
         if not isinstance(cm, CompiledModel):
             raise OcpError(f"Problem takes a compiled model (Model.compile()), got {type(cm).__name__}")
+        # friction with true stiction switches modes at events an optimiser cannot differentiate
+        # through: the problem is posed on the smooth (regularised) forms, and says which it smoothed
+        cm, self.smoothed = cm.smoothed()
         self.cm, self.dae = cm, cm.dae
         if not self.dae.u_names:
             raise OcpError(f"model {cm.name!r} has no inputs to optimise: add an input component such as "

@@ -16,6 +16,7 @@ class Solution:
     def __init__(self, prob, method, values: dict, stats: dict):
         dae = prob.dae
         self.problem, self.method, self.stats = prob, method, stats
+        stats["smoothed"] = prob.smoothed          # friction elements posed in their smooth form
         self.success = stats["success"]
         self.t = np.asarray(values["t"], dtype=float).ravel()
         self.t_final = float(np.asarray(values["T"]).ravel()[0])

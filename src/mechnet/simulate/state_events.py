@@ -505,9 +505,12 @@ class StateEvents:
             self._armed, _, _ = self._sides(t, self._rates(t, self.x, self.z))
             self._armed_at = t
             return
+        times = [e.t for e in self.events if e.kind == "state" and e.cause == label][-4:]
         self.failure = IntegrationError(
             f"event accumulation at t = {t:.9g} s: {label} — {why} (chattering or a Zeno point such as a "
-            f"bouncing ball coming to rest); the result holds the solution up to there",
+            f"bouncing ball coming to rest; its last events at t = {', '.join(f'{v:.9g}' for v in times)} s; "
+            f"a stop or contact with a rest mode would come to rest here); the result holds the solution up "
+            f"to there",
             t=float(t), step=float("nan"), worst=label, solver_message="event accumulation")
 
     def _record_at(self, t, x, z):

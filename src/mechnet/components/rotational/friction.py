@@ -66,16 +66,11 @@ class Clutch(PartialFriction):
     cgeo = Param(1.0, unit="m", doc="geometry constant: effective friction radius × number of surfaces",
                  check=nonnegative)
     mu_k = Param(unit="1", doc="kinetic friction coefficient", check=nonnegative)
-    mu_s = Param(None, unit="1", doc="static friction coefficient (>= mu_k; default mu_k)", check=nonnegative)
+    mu_s = Param(None, unit="1", doc="static friction coefficient (>= mu_k)", check=nonnegative)
     mu_v = Param(0.0, unit="s/rad", doc="viscous friction coefficient per unit normal force", check=nonnegative)
     w_Stribeck = Param(0.0, unit="rad/s", doc="speed over which the static excess decays (0: at once)",
                        check=nonnegative)
     f_normalized = Input(default=1.0, unit="1", doc="normalised normal force (0 open, 1 fully pressed)")
-
-    def __init__(self, name: str, **kwargs):
-        if kwargs.get("mu_s") is None and "mu_k" in kwargs:
-            kwargs["mu_s"] = kwargs["mu_k"]
-        super().__init__(name, **kwargs)
 
     def check(self):
         if value_of(self, "mu_s") < value_of(self, "mu_k"):

@@ -62,15 +62,10 @@ class Friction(PartialFriction):
 
     fn = Param(unit="N", doc="normal force pressing the block on the surface", check=nonnegative)
     mu_k = Param(unit="1", doc="kinetic (Coulomb) friction coefficient", check=nonnegative)
-    mu_s = Param(None, unit="1", doc="static friction coefficient (>= mu_k; default mu_k)", check=nonnegative)
+    mu_s = Param(None, unit="1", doc="static friction coefficient (>= mu_k)", check=nonnegative)
     mu_v = Param(0.0, unit="s/m", doc="viscous friction per newton of normal force", check=nonnegative)
     v_Stribeck = Param(0.0, unit="m/s", doc="speed over which the static excess decays (0: at once)",
                        check=nonnegative)
-
-    def __init__(self, name: str, **kwargs):
-        if kwargs.get("mu_s") is None and "mu_k" in kwargs:
-            kwargs["mu_s"] = kwargs["mu_k"]
-        super().__init__(name, **kwargs)
 
     def check(self):
         if value_of(self, "mu_s") < value_of(self, "mu_k"):
