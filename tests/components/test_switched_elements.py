@@ -161,3 +161,82 @@ def test_a_brake_without_normal_force_breaks_away_the_instant_a_clutch_engages()
     assert state["brake sticks"] == pytest.approx(2.2, abs=1e-9)
     after = res.t > 2.2 + 1e-9
     assert np.max(np.abs(res["load.w"][after])) <= 1e-12 and np.max(np.abs(res["motor.w"][after])) <= 1e-12
+
+
+# ---- stops, contacts and joints ----------------------------------------------------------------
+
+def test_a_mass_rests_against_a_stop_while_pushed_and_leaves_when_pulled():
+    """1 kg at 0, pushed by 2 N toward a stop at s_max = 0.1 m (e = 0.5): impacts at √(2·0.1/2) = 0.316 s,
+    then ever shorter bounces (each flight e times the last) accumulating at 0.316·(1 + 2e/(1 − e))
+    = 0.949 s, where it rests, the stop holding the 2 N; at 3 s the push turns to −2 N and it lets go
+    at that instant (a condition thrown across by a time event). rtol 1e-10, atol 1e-12."""
+    m = mn.Model("pushed")
+    wall = m.add(tr.Fixed(name="wall"))
+    stop = m.add(tr.HardStop(name="stop", s_min=-1.0, s_max=0.1, e=0.5))
+    mass = m.add(tr.Mass(name="mass", m=1.0, s_start=0.0, v_start=0.0))
+    push = m.add(tr.Force(name="push", f=Step(-4.0, offset=2.0, start_time=3.0)))
+    m.connect(wall.flange, stop.flange_a)
+    m.connect(stop.flange_b, mass.flange_a)
+    m.connect(push.flange, mass.flange_b)
+    res = mn.compile(m).simulate(3.5, n_out=36, rtol=1e-10, atol=1e-12)
+    assert res.failure is None
+    impacts = [e.t for e in res.events if e.kind == "state" and "hits s_max" in e.cause]
+    assert impacts[0] == pytest.approx(np.sqrt(0.1), abs=1e-9)
+    assert impacts[1] - impacts[0] == pytest.approx(2 * 0.5 * np.sqrt(0.1), abs=1e-9)   # flight: 2·e·v/a
+    rest = next(e.t for e in res.events if e.kind == "rest")
+    assert rest == pytest.approx(np.sqrt(0.1) * (1 + 2 * 0.5 / 0.5), abs=1e-3)
+    held = (res.t > rest + 1e-9) & (res.t < 3.0)
+    assert np.all(res["stop.mode"][held] == 1.0)
+    assert np.allclose(res["stop.f"][held], 2.0, rtol=1e-12)                # the push, carried by the stop
+    assert np.max(np.abs(res["mass.s"][held] - 0.1)) <= 10 * (1e-10 * 0.1 + 1e-12)
+    lets_go = [e.t for e in res.events if "lets go" in e.cause]
+    assert lets_go == [3.0]
+    after = res.t > 3.0
+    np.testing.assert_allclose(res["mass.s"][after], 0.1 - 0.5 * 2.0 * (res.t[after] - 3.0) ** 2, rtol=1e-8, atol=1e-12)
+
+
+def test_an_elastic_gap_settles_at_its_static_compression():
+    """A 0.1 kg ball dropped 0.2 m on an ElastoGap (c = 1e4 N/m, d = 20 N·s/m) bounces, is damped and
+    settles at the static compression −m·g/c = −9.81e-5 m (within 1e-9 m after 3 s, rtol 1e-8)."""
+    m = mn.Model("gap_ball")
+    floor = m.add(tr.Fixed(name="floor"))
+    gap = m.add(tr.ElastoGap(name="gap", c=1e4, d=20.0))
+    ball = m.add(tr.Mass(name="ball", m=0.1, s_start=0.2, v_start=0.0))
+    gravity = m.add(tr.ConstantForce(name="gravity", f_constant=-0.981))
+    m.connect(floor.flange, gap.flange_a)
+    m.connect(gap.flange_b, ball.flange_a)
+    m.connect(gravity.flange, ball.flange_b)
+    res = mn.compile(m).simulate(3.0, n_out=31, rtol=1e-8, atol=1e-10)
+    assert res.failure is None and len([e for e in res.events if e.kind == "state"]) >= 2
+    assert res["ball.s"][-1] == pytest.approx(-0.981 / 1e4, abs=1e-9)
+    assert np.all(res["gap.f"] <= 0.0)                      # it only ever pushes
+
+
+def test_newtons_cradle_on_prismatic_joints():
+    """Five 0.2 kg balls (d = 5 cm) on prismatic joints along x, 1 mm apart, contacts between the
+    joints' axis flanges (e = 1), the first at 1 m/s: four impacts at 1, 2, 3, 4 ms (to 1e-9 s), the
+    last leaves at 1 m/s (1e-9 relative), the others at rest (1e-9 m/s). rtol 1e-10, atol 1e-12."""
+    from mechnet.components import multibody as mb
+    n, d, gap, mass = 5, 0.05, 1e-3, 0.2
+    m = mn.Model("cradle_mb")
+    world = m.add(mb.World(name="world", g=[0.0, -9.81, 0.0]))
+    rail = m.add(tr.Fixed(name="rail"))
+    joints = []
+    for i in range(n):
+        joint = m.add(mb.Prismatic(name=f"slide{i}", n=[1, 0, 0], use_flange=True, s_start=i * (d + gap),
+                                   v_start=1.0 if i == 0 else 0.0))
+        body = m.add(mb.Body(name=f"ball{i}", m=mass, r_cm=[0, 0, 0], I=np.eye(3) * 0.4 * mass * (d / 2) ** 2))
+        m.connect(world.frame_b, joint.frame_a)
+        m.connect(joint.frame_b, body.frame_a)
+        m.connect(rail.flange, joint.support)
+        joints.append(joint)
+    for i in range(n - 1):
+        contact = m.add(tr.Contact(name=f"c{i}", e=1.0, s_contact=d))
+        m.connect(joints[i].axis, contact.flange_a)
+        m.connect(contact.flange_b, joints[i + 1].axis)
+    res = mn.compile(m).simulate(0.01, n_out=11, rtol=1e-10, atol=1e-12)
+    impacts = [e.t for e in res.events if e.kind == "state"]
+    np.testing.assert_allclose(impacts, [1e-3, 2e-3, 3e-3, 4e-3], atol=1e-9)
+    v = np.array([res[f"slide{i}.v"][-1] for i in range(n)])
+    assert v[-1] == pytest.approx(1.0, rel=1e-9)
+    assert np.max(np.abs(v[:-1])) <= 1e-9
