@@ -240,3 +240,78 @@ def test_newtons_cradle_on_prismatic_joints():
     v = np.array([res[f"slide{i}.v"][-1] for i in range(n)])
     assert v[-1] == pytest.approx(1.0, rel=1e-9)
     assert np.max(np.abs(v[:-1])) <= 1e-9
+
+
+def test_a_pendulum_with_coulomb_bearing_friction_swings_down_to_rest():
+    """A point mass (1 kg, 0.5 m) on a revolute joint with BearingFriction (τ_C = 0.6 N·m) on its
+    flanges, released at θ = 1 rad from the downward vertical. Between turning points energy falls by
+    τ_C·|Δθ|: V(a) − V(b) = τ_C·|a − b|, V = −m·g·l·cos θ; it sticks at each turning point and breaks away
+    while m·g·l·|sin θ| > τ_C. Turning angles from that energy balance (brentq to 1e-15) within 1e-7 rad
+    at rtol 1e-10, atol 1e-12; the last one holds for good (w = 0 exactly)."""
+    from scipy.optimize import brentq
+    from mechnet.components import multibody as mb
+    M, L, G, TC = 1.0, 0.5, 9.81, 0.6
+    m = mn.Model("pendulum_friction")
+    world = m.add(mb.World(name="world", g=[0, -G, 0]))
+    joint = m.add(mb.Revolute(name="joint", n=[0, 0, 1], use_flange=True, phi_start=1.0 - np.pi / 2, w_start=0.0))
+    bob = m.add(mb.Body(name="bob", m=M, r_cm=[L, 0, 0], I=np.zeros((3, 3))))
+    bearing = m.add(rot.BearingFriction(name="bearing", tau_Coulomb=TC))
+    fixed = m.add(rot.Fixed(name="fixed"))
+    m.connect(world.frame_b, joint.frame_a)
+    m.connect(joint.frame_b, bob.frame_a)
+    m.connect(joint.support, fixed.flange)
+    m.connect(fixed.flange, bearing.flange_a)
+    m.connect(bearing.flange_b, joint.axis)
+    res = mn.compile(m).simulate(6.0, n_out=61, rtol=1e-10, atol=1e-12)
+    assert res.failure is None
+
+    def potential(theta):
+        return -M * G * L * np.cos(theta)
+    turning = [1.0]
+    while M * G * L * abs(np.sin(turning[-1])) > TC:
+        a, toward = turning[-1], -np.sign(turning[-1])
+
+        def h(step):
+            return potential(a) - potential(a + toward * step) - TC * step
+        grid = np.linspace(1e-9, 2 * abs(a) + 1e-9, 20001)
+        k = int(np.argmax(h(grid) < 0))
+        turning.append(a + toward * brentq(h, grid[k - 1], grid[k], xtol=1e-15))
+    sticks = [e.t for e in res.events if "sticks" in e.cause]
+    assert len(sticks) == len(turning) - 1 == 4
+    angles = [res["joint.phi"][np.flatnonzero(res.t == t)[-1]] + np.pi / 2 for t in sticks]
+    np.testing.assert_allclose(angles, turning[1:], atol=1e-7)
+    after = res.t > sticks[-1]
+    assert np.all(res["joint.w"][after] == 0.0)
+    assert np.ptp(res["joint.phi"][after]) == 0.0
+
+
+def test_a_sliding_block_rebounds_off_a_stop_and_friction_stops_it():
+    """A 1 kg block sliding at −2 m/s on a surface (μk = 0.2, μs = 0.3: deceleration μk·g = 1.962 m/s²)
+    hits a stop at s_min = −0.1 m (e = 0.5). The impact throws the relative velocity across 0: friction
+    must slide the other way (not stick), so the block rebounds at −e·v₁, slides back and sticks when
+    friction has taken its speed, at t₁ − e·v₁/(μk·g), then stays. Times within 1e-9 s, positions 1e-9 m
+    (rtol 1e-10, atol 1e-12)."""
+    g, mu_k, e = 9.81, 0.2, 0.5
+    m = mn.Model("block_stop")
+    ground = m.add(tr.Fixed(name="ground"))
+    block = m.add(tr.Mass(name="block", m=1.0, s_start=0.0, v_start=-2.0))
+    fr = m.add(tr.Friction(name="fr", fn=g, mu_k=mu_k, mu_s=0.3))
+    stop = m.add(tr.HardStop(name="stop", s_min=-0.1, s_max=1.0, e=e))
+    m.connect(ground.flange, fr.flange_a)
+    m.connect(fr.flange_b, block.flange_a)
+    m.connect(ground.flange, stop.flange_a)
+    m.connect(stop.flange_b, block.flange_b)
+    res = mn.compile(m).simulate(2.0, n_out=21, rtol=1e-10, atol=1e-12)
+    a = mu_k * g
+    t1 = (2.0 - np.sqrt(4.0 - 2 * a * 0.1)) / a              # −0.1 = −2t + a t²/2
+    v1 = -2.0 + a * t1
+    t2 = t1 + (-e * v1) / a
+    s2 = -0.1 + (e * v1) ** 2 / (2 * a)
+    hit = next(ev.t for ev in res.events if "hits s_min" in ev.cause)
+    assert hit == pytest.approx(t1, abs=1e-9)
+    after_hit = np.flatnonzero(res.t == hit)[-1]
+    assert res["block.v"][after_hit] == pytest.approx(-e * v1, rel=1e-9)
+    stick = [ev.t for ev in res.events if "sticks" in ev.cause and ev.t > hit]
+    assert stick[-1] == pytest.approx(t2, abs=1e-9)
+    rest = res.t > t2 + 1e-9
+    assert np.max(np.abs(res["block.s"][rest] - s2)) <= 1e-9 and np.all(res["block.v"][rest] == 0.0)

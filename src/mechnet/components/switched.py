@@ -84,10 +84,13 @@ def friction_events(v, sa, mode, impulse, f_static, v_small, name):
     """Break away (at the start too, when already pushed past the limit), stick with a plastic jump, and
     start sliding when the run begins with the surfaces moving (|v| > v_small)."""
     stuck = mode == HELD
+    # v reaching 0 sticks (plastically: v is made exactly 0); v thrown across 0 by another element's
+    # jump (a block rebounding off a stop) keeps it sliding, the other way
+    thrown = ca.fabs(v) > v_small
     return [When(ca.if_else(stuck, ca.fabs(sa) - f_static, -1.0), reset={mode: ca.sign(sa)},
                  direction="rising", at_start=True, doc=f"{name} breaks away"),
-            When(ca.if_else(stuck, 1.0, mode * v), reset={mode: HELD}, jump={impulse: (v, 0.0)},
-                 direction="falling", doc=f"{name} sticks"),
+            When(ca.if_else(stuck, 1.0, mode * v), reset={mode: ca.if_else(thrown, ca.sign(v), HELD)},
+                 jump={impulse: (v, ca.if_else(thrown, v, 0.0))}, direction="falling", doc=f"{name} sticks"),
             When(ca.if_else(stuck, ca.fabs(v) - v_small, -1.0), reset={mode: ca.sign(v)},
                  direction="rising", at_start=True, doc=f"{name} starts sliding")]
 
