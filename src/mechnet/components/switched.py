@@ -108,13 +108,15 @@ def contact_equations(a, f, sa, mode, impulse):
 
 
 def impact_event(gap, v, e, v_rest, mode, side, impulse, name, what):
-    """`gap` (≥ 0 while apart) closing: v → −e·v through the whole scene, or rest (mode := side, v → 0)
-    when the approach is slower than v_rest or the impacts accumulate. `side` is +1 at an upper limit
-    (contact pushes the b side back: f > 0), −1 at a lower one."""
-    resting = ca.fabs(v) <= v_rest
+    """`gap` (≥ 0 while apart) closing at the speed v (> 0 approaching): v → −e·v through the whole
+    scene, or rest (mode := side, v → 0) when the approach is at most v_rest (a body placed on its stop:
+    v = 0) or the impacts accumulate. A contact found "closing" while it separates (v < 0: a round-off
+    crossing just after its own impact) is left as it is. `side` is +1 at an upper limit (contact
+    pushes the b side back: f > 0), −1 at a lower one."""
+    resting = ca.logic_and(v >= 0, v <= v_rest)
     return When(ca.if_else(mode == 0, gap, 1.0), direction="falling",
                 reset={mode: ca.if_else(resting, side, 0.0)},
-                jump={impulse: (v, ca.if_else(resting, 0.0, -e * v))},
+                jump={impulse: (v, ca.if_else(resting, 0.0, ca.if_else(v > 0, -e * v, v)))},
                 rest={mode: side}, doc=f"{name} {what}")
 
 
