@@ -13,6 +13,8 @@ friction element stuck or sliding); in an FMU they are discrete variables.
                                         quaternion (0 on the solution)
     zero(t,x,z,u,p,d) -> g              event conditions; an event is g crossing 0 in its direction
     transition[i](t,x,z,u,p,d) -> (x_plus, d_plus)   the states and modes after event i
+    rest[i]: like transition[i], or None            the plastic jump and rest modes that end an
+                                        accumulation of event i (a ball coming to rest)
     init(t, u, p, d, s, w0) -> (x, z, residual_norm)  consistent start from the start values s
     solve_alg(t, x, z0, u, p, d) -> (z, residual_norm)   z from the states, warm-started at z0
     jac_ode, jac_alg (t,x,z,u,p,d) -> (d/dx, d/dz, d/du, d/dp)    sparse Jacobians
@@ -54,7 +56,8 @@ def functions(cm) -> dict:
 def _build(cm, dae, verdict: dict) -> dict:
     args = [dae.t, dae.x, dae.z, dae.u, dae.p, dae.d]
     out = {"ode": dae.ode, "alg": dae.alg, "observed": dae.observed, "invariants": dae.invariants,
-           "zero": dae.zero, "transition": tuple(dae.transition)}
+           "zero": dae.zero, "transition": tuple(dae.transition),
+           "rest": tuple(dae.info.get("rest_transition", ()) or (None,) * len(dae.transition))}
     ode = dae.ode(*args)
     alg = dae.alg(*args)
     wrt = (dae.x, dae.z, dae.u, dae.p)

@@ -82,6 +82,11 @@ def write_casadi(fns: dict, path: Path) -> Path:
         for k, f in enumerate(fns["transition"]):
             f.save(str(path / f"transition_{k}.casadi"))
         files["transition"] = [f"transition_{k}.casadi" for k in range(len(fns["transition"]))]
+        files["rest"] = []
+        for k, f in enumerate(fns.get("rest", ())):
+            if f is not None:
+                f.save(str(path / f"rest_{k}.casadi"))
+            files["rest"].append(None if f is None else f"rest_{k}.casadi")
     (path / "model.json").write_text(json.dumps(_record(fns, "casadi", files), indent=1))
     return path
 

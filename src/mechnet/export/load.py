@@ -46,8 +46,10 @@ def load(path) -> "LoadedModel":
         raise ExportError(f"load: {path} is a kind={record.get('kind')!r} export; load reads kind='casadi'{hint}")
     with BUILD_LOCK:
         fns = {name: ca.Function.load(str(path / file)) for name, file in record["files"].items()
-               if name != "transition"}
+               if name not in ("transition", "rest")}
         fns["transition"] = tuple(ca.Function.load(str(path / f)) for f in record["files"]["transition"])
+        fns["rest"] = tuple(None if f is None else ca.Function.load(str(path / f))
+                            for f in record["files"].get("rest", [None] * len(fns["transition"])))
     selection = record["selection"]
     if not selection["holds"]:
         warnings.warn(f"model {record['name']!r} loaded from {path} keeps the states {', '.join(selection['states'])} "
@@ -84,7 +86,8 @@ def _dae(record: dict, fns: dict) -> SemiExplicitDAE:
             "nominal": {v["name"]: v["nominal"] for v in record["observed"]}, "parameter_checks": checks,
             "solved": 0, "torn": len(record["z"]), "observed_only": 0,
             "quaternions": tuple(tuple(index) for index in record.get("quaternions", ())),
-            "zero_at_start": tuple(bool(e.get("at_start", False)) for e in record["zero"])}
+            "zero_at_start": tuple(bool(e.get("at_start", False)) for e in record["zero"]),
+            "rest_transition": tuple(fns.get("rest", ()))}
     return SemiExplicitDAE(
         name=record["name"], t=t, x=x, z=z, u=u, p=p, d=d,
         x_names=names["x"], z_names=names["z"], u_names=names["u"], p_names=names["p"], d_names=names["d"],
