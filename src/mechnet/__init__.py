@@ -8,6 +8,7 @@ from .core.errors import (ConnectError, FrozenModelError, HigherIndexError, Init
 from .components.switched import smooth_friction
 from .kinematics import kinematics
 from .simulate import IntegrationWarning, Result
+from .sweep import Sweep, sweep
 from . import ocp  # noqa: E402 - mechnet.ocp, after the core it builds on
 
 __version__ = "0.1.0"
@@ -20,7 +21,7 @@ __all__ = ["Across", "CompileOptions", "CompiledModel", "Component", "ConnectErr
            "UnbalancedModelError", "UnknownNameError", "Var", "When", "compile", "der", "every_parameter_tunable",
            "kinematics", "nonnegative",
            "ocp",
-           "positive", "smooth_friction", "time", "tunable"]
+           "positive", "smooth_friction", "Sweep", "sweep", "time", "tunable"]
 
 
 def compile(model: Model, options: CompileOptions | None = None) -> CompiledModel:  # noqa: A001

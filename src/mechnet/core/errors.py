@@ -60,6 +60,15 @@ class IntegrationError(MechnetError):
         self.solver_message = solver_message
         self.result = result
 
+    def __reduce__(self):
+        """Pickled (a failed run coming back from a worker process) with its details, without the
+        result it belongs to (that result carries it as `failure`)."""
+        return (_integration_error, (str(self), self.t, self.step, self.worst, self.solver_message))
+
+
+def _integration_error(message, t, step, worst, solver_message):
+    return IntegrationError(message, t=t, step=step, worst=worst, solver_message=solver_message)
+
 
 class SceneError(MechnetError):
     """A scene file that cannot be loaded (missing build(), build() not returning a Model)."""
