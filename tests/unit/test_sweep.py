@@ -64,8 +64,7 @@ def test_failures_keep_their_partial_result_and_reason():
     run stops there (status failed, the solution up to there kept); e = 1 bounces for the whole 5 s; a
     negative e is refused before it runs (status error, no result)."""
     cm = bouncing_ball(e=mn.tunable(0.8)).compile()
-    with pytest.warns(mn.IntegrationWarning):
-        out = mn.sweep(cm, t_end=5.0, params={"b.e": [0.8, 1.0, -0.5]}, workers=0, outputs=["b.h"])
+    out = mn.sweep(cm, t_end=5.0, params={"b.e": [0.8, 1.0, -0.5]}, workers=0, outputs=["b.h"])
     ok, failed, error = out.runs
     assert ok.status == "failed" and "event accumulation" in ok.reason and 3.9 < ok.result.t[-1] < 4.1
     assert failed.status == "ok" and failed.result.t[-1] == 5.0
@@ -79,7 +78,7 @@ def test_failures_keep_their_partial_result_and_reason():
     (dict(params={"spring.c": 100.0}), "'spring.c' takes a list of values"),
     (dict(params={"spring.c": [1.0, 2.0]}, starts={"j1.phi": [0.1]}, combine="zip"), "lists of one length"),
     (dict(params={"spring.c": [1.0]}, combine="diagonal"), "combine='diagonal'"),
-    (dict(cases=[{"parameters": {}}]), "keys are 'params', 'start' and 'inputs'"),
+    (dict(cases=[{"parameters": {}}]), "keys are 'params', 'start', 'inputs' and 'settings'"),
     (dict(cases=[{}], params={"spring.c": [1.0]}), "not both"),
     (dict(params={"spring.c": [1.0]}, outputs=["j1.omega"]), "'j1.omega' is not a name"),
     (dict(params={"spring.c": [1.0]}, workers=-1), "workers"),
