@@ -24,6 +24,9 @@ from mechnet.core.errors import MechnetError, SceneError
 from mechnet.simulate.solvers import METHODS
 
 
+from .accuracy import METHODS as ACCURACY_METHODS  # noqa: E402
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the console script; returns the process exit status."""
     parser = _parser()
@@ -83,7 +86,54 @@ def _parser() -> argparse.ArgumentParser:
     exp.add_argument("-o", "--out", type=Path, required=True, metavar="OUT",
                      help="the .fmu file (kind fmu) or the folder (kinds c and casadi) to write")
     exp.set_defaults(run=_export)
+
+    acc = sub.add_parser("accuracy", parents=[common],
+                         help="work-precision study of one scene file: error against time over methods and tolerances")
+    acc.add_argument("file", type=Path, metavar="FILE", help="scene file defining build()")
+    acc.add_argument("--t-end", type=float, default=None, help="end time in s (default: the scene's t_end, at most 10 s)")
+    acc.add_argument("--at", type=float, default=None, help="time of the error in s (default: the end time)")
+    acc.add_argument("--methods", nargs="+", default=None, metavar="METHOD",
+                     help="methods to compare (default: all that apply): " + ", ".join(ACCURACY_METHODS))
+    acc.add_argument("--tolerances", nargs="+", type=float, default=None, metavar="RTOL",
+                     help="relative tolerances (default 1e-3 ... 1e-10)")
+    acc.add_argument("--target", type=float, default=1e-6, help="error to recommend settings for (default 1e-6)")
+    acc.add_argument("--workers", type=int, default=0, help="worker processes for the runs (default: here)")
+    acc.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                     help="run on a Dask cluster (tcp://host:8786) instead of local workers")
+    acc.add_argument("-o", "--out", type=Path, default=None, metavar="DIR",
+                     help="folder for the plot, table (.md) and CSV (default: ./mechnet-accuracy)")
+    acc.set_defaults(run=_accuracy)
     return parser
+
+
+def _accuracy(args: argparse.Namespace) -> int:
+    from mechnet.accuracy import TOLERANCES, study
+    from mechnet.scene import load_scene
+
+    scene = load_scene(args.file)
+    cm = scene.model().compile()
+    t_end = args.t_end if args.t_end is not None else min(scene.t_end, 10.0)
+    client = None
+    if args.scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise MechnetError("--scheduler needs dask.distributed: pip install 'mechnet[dask]'") from None
+        client = Client(args.scheduler)
+    t0 = time.perf_counter()
+    result = study(cm, t_end, at=args.at, methods=args.methods, tolerances=tuple(args.tolerances or TOLERANCES),
+                   reference=scene.reference, workers=args.workers, client=client)
+    out = args.out or Path("mechnet-accuracy")
+    out.mkdir(parents=True, exist_ok=True)
+    stem = out / f"{cm.name}_accuracy"
+    import matplotlib.pyplot as plt
+    plt.close(result.plot(stem.with_suffix(".png")))
+    stem.with_suffix(".md").write_text(result.to_markdown() + "\n", encoding="utf-8")
+    result.to_csv(stem.with_suffix(".csv"))
+    print(result.to_markdown())
+    print(f"\nrecommended for error <= {args.target:g}:\n{result.recommendation(args.target)}")
+    print(f"\nwrote {stem}.png, .md and .csv in {time.perf_counter() - t0:.1f} s")
+    return 0
 
 
 def _export(args: argparse.Namespace) -> int:

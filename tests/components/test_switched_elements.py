@@ -37,10 +37,10 @@ def block(friction, push=5.0, c=10.0, s0=0.0):
     (lambda: rot.BearingFriction(name="bf", tau_Coulomb=1.0, tau_prop=-2.0), "bf.*tau_prop"),
     (lambda: tr.Friction(name="fr", fn=1.0, mu_k=0.4, mu_s=0.3), "fr.*mu_s = 0.3 is below kinetic mu_k = 0.4"),
     (lambda: rot.Clutch(name="cl", fn_max=1.0, mu_k=0.4, mu_s=0.3), "cl.*mu_s"),
-    (lambda: tr.Contact(name="c", e=1.5), r"c \(Contact\).*restitution e = 1.5 must lie in \[0, 1\]"),
-    (lambda: rot.HardStop(name="st", phi_min=0.0, phi_max=1.0, e=-0.1), "st.*restitution"),
-    (lambda: tr.HardStop(name="st", s_min=1.0, s_max=0.5), r"st \(HardStop\): limits reversed: s_min = 1.0"),
-    (lambda: rot.HardStop(name="st", phi_min=0.2, phi_max=0.2), "st.*limits reversed"),
+    (lambda: tr.Contact(name="c", e=1.5), r"c \(Contact\).*e = 1.5 must lie in \[0, 1\]"),
+    (lambda: rot.HardStop(name="st", phi_min=0.0, phi_max=1.0, e=-0.1), "st.*e = -0.1 must lie in"),
+    (lambda: tr.HardStop(name="st", s_min=1.0, s_max=0.5), r"st \(HardStop\): limits reversed or equal: s_min = 1.0"),
+    (lambda: rot.HardStop(name="st", phi_min=0.2, phi_max=0.2), "st.*limits reversed or equal"),
 ])
 def test_bad_coefficients_are_refused_by_name(make, match):
     with pytest.raises(mn.ParameterError, match=match):
@@ -336,3 +336,32 @@ def test_an_exported_and_loaded_ball_still_comes_to_rest(tmp_path):
     t_inf = np.sqrt(2 * 1.0 / 9.81) * 1.8 / 0.2
     assert len(rest) == 1 and rest[0] == pytest.approx(t_inf, abs=1e-3)
     assert np.all(res["contact.mode"][res.t > rest[0]] == -1.0)
+
+
+def test_an_ocp_refuses_what_it_cannot_smooth_by_name():
+    """A stop (rigid impacts) cannot be posed smooth: the problem is refused naming it; so is friction in
+    a compiled model that crossed a process boundary (no scene left to compile smooth again)."""
+    import pickle
+
+    from mechnet import ocp
+    m = mn.Model("pushed_to_stop")
+    wall = m.add(tr.Fixed(name="wall"))
+    stop = m.add(tr.HardStop(name="stop", s_min=-1.0, s_max=1.0, e=0.5))
+    mass = m.add(tr.Mass(name="mass", m=1.0, s_start=0.0, v_start=0.0))
+    push = m.add(tr.Force(name="push"))
+    m.connect(wall.flange, stop.flange_a)
+    m.connect(stop.flange_b, mass.flange_a)
+    m.connect(push.flange, mass.flange_b)
+    with pytest.raises(mn.OcpError, match=r"stop \(HardStop\) switch modes.*tr.ElastoGap"):
+        ocp.Problem(m.compile(), t_final=1.0)
+    b = mn.Model("block_push")
+    mass = b.add(tr.Mass(name="mass", m=1.0, s_start=0.0, v_start=0.0))
+    push = b.add(tr.Force(name="push"))
+    ground = b.add(tr.Fixed(name="ground"))
+    fr = b.add(tr.Friction(name="fr", fn=9.81, mu_k=0.2, mu_s=0.3))
+    b.connect(push.flange, mass.flange_a)
+    b.connect(ground.flange, fr.flange_a)
+    b.connect(fr.flange_b, mass.flange_b)
+    crossed = pickle.loads(pickle.dumps(b.compile()))
+    with pytest.raises(mn.OcpError, match=r"fr \(Friction\) switch modes"):
+        ocp.Problem(crossed, t_final=1.0)

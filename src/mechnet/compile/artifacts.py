@@ -64,6 +64,7 @@ class ZeroCrossing:
     jumps: tuple = ()            # (index in FlatSystem.modes of an Impulse, velocity, target)
     rest: tuple = None           # mode resets (index, value) at an accumulation of these events, or None
     at_start: bool = False       # fires at the start when already past zero in its direction
+    release: bool = True         # its jump frees held elements (an impact), or keeps them (sticking)
 
 
 @dataclass(frozen=True)
@@ -110,6 +111,7 @@ class FlatSystem:
     modes: tuple = ()             # FlatMode: discrete variables, the DAE's d
     unit_quaternions: tuple = ()  # (what, names): quaternion states, renormalised at restarts, |Q| − 1 watched
     switched: tuple = ()          # (path, type, form) of each component with modes: friction, stops, relays
+    releases: tuple = ()          # (mode index, value during a jump, value after it): `Component.jump_releases`
 
     def expand(self, exprs: list) -> list:
         """`exprs` with the intermediates replaced by their definitions (sharing kept: one pass)."""

@@ -159,7 +159,8 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     algf = _fn("alg", args, alg_expr, "res")
     observed = _fn("observed", args, obs, "y")
     resolve = _without_aliases(original, survivor, aliases) if modes else None
-    zero, transitions, rests = _events(flat, x_index, symbols, current, args, x, resolve, ode_expr, alg_expr)
+    zero, transitions, rests = _events(flat, x_index, symbols, current, args, x, resolve, ode_expr, alg_expr,
+                                       original.releases)
     invariants = _fn("invariants", args, inv, "c")
     x_names = tuple(variables[i].name for i in x_index)
     z_names = tuple(variables[i].name for i in z_index)
@@ -262,7 +263,7 @@ def _jump(ode, alg, args, velocities, impulses):
     return B, V @ B
 
 
-def _events(flat, x_index, symbols, current, args, x, resolve, ode=None, alg=None):
+def _events(flat, x_index, symbols, current, args, x, resolve, ode=None, alg=None, releases=()):
     """zero(t,x,z,u,p,d) stacks the conditions; transition[i] maps the state and the modes to their values
     after event i (new values computed from those before it), through the scene's impulse–momentum
     equations where the event makes a jump; rest[i] (or None) is the plastic jump and the mode
@@ -282,6 +283,17 @@ def _events(flat, x_index, symbols, current, args, x, resolve, ode=None, alg=Non
     state_pos = {i: k for k, i in enumerate(x_index)}
     d = args[5]
 
+    released = [(k, during, flat.expand([in_base(resolve(after))])[0]) for k, during, after in releases]
+    if released:
+        # during a jump, held friction slides and resting contacts are free: what holds them carries a
+        # bounded force (friction) or pushes only (a contact), so it takes no part in another element's
+        # impulse (a stuck block hit by another leaves; a body resting on its stop is knocked off it)
+        held = ca.vertcat(*[d[k] for k, _, _ in released])
+        free = ca.vertcat(*[ca.SX(during) for _, during, _ in released])
+        ode_j, alg_j = ca.substitute(ode, held, free), ca.substitute(alg, held, free)
+    else:
+        ode_j, alg_j = ode, alg
+
     def jumped(zc, plastic):
         """x after the jump of zc (x itself when it has none)."""
         if not zc.jumps:
@@ -289,8 +301,17 @@ def _events(flat, x_index, symbols, current, args, x, resolve, ode=None, alg=Non
         vel = flat.expand([ca.vertcat(*[in_base(resolve(v)) for _, v, _ in zc.jumps])])[0]
         goal = ca.DM.zeros(len(zc.jumps)) if plastic else \
             flat.expand([ca.vertcat(*[in_base(resolve(g)) for _, _, g in zc.jumps])])[0]
-        B, W = _jump(ode, alg, args, vel, [d[k] for k, _, _ in zc.jumps])
+        B, W = _jump(ode_j if zc.release else ode, alg_j if zc.release else alg, args, vel,
+                     [d[k] for k, _, _ in zc.jumps])
         return x + B @ ca.solve(W, goal - vel)
+
+    def after_jump(zc, x_new):
+        """The released elements' modes after the jump of zc, from the states it leaves (none without a
+        jump); zc's own mode resets come after and override."""
+        if not zc.jumps or not released or not zc.release:
+            return []
+        values = ca.substitute(ca.vertcat(*[a for _, _, a in released]), x, x_new)
+        return [(k, values[j]) for j, (k, _, _) in enumerate(released)]
 
     transitions, rests = [], []
     for n, zc in enumerate(flat.zero_crossings):
@@ -302,22 +323,25 @@ def _events(flat, x_index, symbols, current, args, x, resolve, ode=None, alg=Non
                                      f"compiled model (it is computed from other variables); reset a state "
                                      f"({', '.join(flat.variables[j].name for j in x_index)})")
             x_plus[state_pos[i]] = in_base(value)
-        transitions.append(_transition(f"transition_{n}", flat, args, x_plus, zc.mode_resets, in_base, resolve))
+        transitions.append(_transition(f"transition_{n}", flat, args, x_plus, zc.mode_resets, in_base, resolve,
+                                       after_jump(zc, x_jumped)))
         if zc.rest is None:
             rests.append(None)
         else:
             x_rest = jumped(zc, True)
             rests.append(_transition(f"rest_{n}", flat, args, [x_rest[k] for k in range(x.numel())], zc.rest,
-                                     in_base, resolve))
+                                     in_base, resolve, after_jump(zc, x_rest)))
     return _fn("zero", args, g, "g"), tuple(transitions), tuple(rests)
 
 
-def _transition(name, flat, args, x_plus, mode_resets, in_base, resolve):
+def _transition(name, flat, args, x_plus, mode_resets, in_base, resolve, released=()):
     d = args[5]
     d_plus = [d[k] for k in range(d.numel())]
+    for k, value in released:                     # already in base symbols
+        d_plus[k] = value
     for k, value in mode_resets:
         d_plus[k] = in_base(resolve(value))
     out = ca.vertcat(*x_plus) if x_plus else ca.SX(0, 1)
     out = flat.expand([out])[0]
-    d_out = flat.expand([ca.vertcat(*d_plus)])[0] if mode_resets else d
+    d_out = flat.expand([ca.vertcat(*d_plus)])[0] if (mode_resets or released) else d
     return ca.Function(name, list(args), [out, d_out], list(ARGS), ["x_plus", "d_plus"])

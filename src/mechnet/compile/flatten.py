@@ -200,16 +200,26 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
             raise StructureError(f"{label}, event {k + 1}: {exc}") from None
         zero_crossings.append(ZeroCrossing(g, tuple(resets), direction,
                                            f"{label}, event {k + 1}" + (f" — {when.doc}" if when.doc else ""),
-                                           tuple(mode_resets), jumps, rest, bool(when.at_start)))
+                                           tuple(mode_resets), jumps, rest, bool(when.at_start),
+                                           bool(when.release)))
 
     switched = tuple((comp.path, type(comp).__name__, comp.form() if hasattr(comp, "form") else "switched")
                      for comp in components if comp.modes)
+    releases = []
+    for comp in components:
+        for mode, during, after in comp.jump_releases():
+            h = ca.SX(mode).element_hash()
+            if h not in mode_at:
+                raise StructureError(f"{comp.path} ({type(comp).__name__}): jump_releases() names {mode}, which "
+                                     f"is not one of its modes in use")
+            releases.append((mode_at[h], float(during), _frames_in(ca.SX(after), tree)))
     return FlatSystem(model.name, tuple(variables), tuple(equations), tuple(parameters), der_of, time,
                       tuple(sorted(effects.items())), time_events=tuple(sorted(time_events)),
                       folded_parameters=tuple(folded), zero_crossings=tuple(zero_crossings),
                       multibody=tree, observed_only=tuple(tree.observed) if tree is not None else (),
                       intermediates=tree.intermediates if tree is not None else ((), ()), modes=tuple(modes),
-                      unit_quaternions=_unit_quaternions(components), switched=switched)
+                      unit_quaternions=_unit_quaternions(components), switched=switched,
+                      releases=tuple(releases))
 
 
 def _unit_quaternions(components) -> tuple:

@@ -65,9 +65,10 @@ def kinetic(speed, coulomb, viscous, stribeck, v_stribeck):
     """The sliding force at |v| = speed: Coulomb + viscous·|v| + Stribeck·exp(−|v|/v_Stribeck). With
     v_Stribeck = 0 the static excess holds only at rest: the force drops to Coulomb as it slides."""
     force = coulomb + viscous * speed
-    if not (isinstance(v_stribeck, (int, float)) and v_stribeck == 0):
-        force = force + stribeck * ca.exp(-speed / v_stribeck)
-    return force
+    if isinstance(v_stribeck, (int, float)):
+        return force + stribeck * ca.exp(-speed / v_stribeck) if v_stribeck > 0 else force
+    # tunable: 0 must not divide (exp(−0/0) is NaN at rest)
+    return force + ca.if_else(v_stribeck > 0, stribeck * ca.exp(-speed / ca.fmax(v_stribeck, 1e-300)), 0.0)
 
 
 def friction_equations(v, a, f, sa, mode, impulse, f_kinetic, f_static):
@@ -90,7 +91,8 @@ def friction_events(v, sa, mode, impulse, f_static, v_small, name):
     return [When(ca.if_else(stuck, ca.fabs(sa) - f_static, -1.0), reset={mode: ca.sign(sa)},
                  direction="rising", at_start=True, doc=f"{name} breaks away"),
             When(ca.if_else(stuck, 1.0, mode * v), reset={mode: ca.if_else(thrown, ca.sign(v), HELD)},
-                 jump={impulse: (v, ca.if_else(thrown, v, 0.0))}, direction="falling", doc=f"{name} sticks"),
+                 jump={impulse: (v, ca.if_else(thrown, v, 0.0))}, release=False, direction="falling",
+                 doc=f"{name} sticks"),
             When(ca.if_else(stuck, ca.fabs(v) - v_small, -1.0), reset={mode: ca.sign(v)},
                  direction="rising", at_start=True, doc=f"{name} starts sliding")]
 
@@ -120,10 +122,22 @@ def impact_event(gap, v, e, v_rest, mode, side, impulse, name, what):
                 rest={mode: side}, doc=f"{name} {what}")
 
 
+def resting_release(mode, v, v_rest):
+    """A resting contact is free during another element's jump (it can only push): after it, it rests on
+    when the jump left it still (|v| ≤ v_rest, at least 1e-10), else it is free and, if the jump drives it
+    into its limit, its own impact follows in the same event iteration (sequential impacts)."""
+    return (mode, 0.0, ca.if_else(ca.fabs(v) <= ca.fmax(v_rest, 1e-10), mode, 0.0))
+
+
 def release_event(sa, mode, name):
     """A resting contact lets go when the force it needs to hold would pull (side·sa falls through 0)."""
     return When(ca.if_else(mode == 0, 1.0, mode * sa), reset={mode: 0.0}, direction="falling",
                 doc=f"{name} lets go")
+
+
+def restitution(value):
+    """The check of a coefficient of restitution (a Param check: also where it is tuned at run time)."""
+    return None if 0.0 <= value <= 1.0 else "must lie in [0, 1] (0 plastic, 1 elastic)"
 
 
 def value_of(component, key):
@@ -172,6 +186,15 @@ class SwitchedFriction:
         return out + friction_equations(self.v_rel, self.a_rel, self._flow(), self.sa, self.mode, self.impulse,
                                         force, self._static_limit())
 
+    def jump_releases(self):
+        """Stuck, it slides during another element's jump (its force is bounded, its impulse none), and
+        after it slides on when the jump left it moving (by more than v_small), or stays stuck."""
+        if self.form() != "switched":
+            return []
+        moving = ca.fabs(self.v_rel) > self.v_small
+        return [(self.mode, FORWARD, ca.if_else(self.mode == HELD, ca.if_else(moving, ca.sign(self.v_rel), HELD),
+                                                self.mode))]
+
     def events(self):
         if self.form() != "switched":
             return []
@@ -184,13 +207,9 @@ class SwitchedStop:
     against a limit. Hooks: `_flow()`, `_position()`, `_limits()` → (lower or None, upper or None)."""
 
     def check(self):
-        e = value_of(self, "e")
-        if not 0.0 <= e <= 1.0:
-            raise ParameterError(f"{self.name} ({type(self).__name__}): coefficient of restitution e = {e} "
-                                 f"must lie in [0, 1] (0 plastic, 1 elastic)")
         lower, upper = self._limit_keys()
         if lower and upper and value_of(self, lower) >= value_of(self, upper):
-            raise ParameterError(f"{self.name} ({type(self).__name__}): limits reversed: {lower} = "
+            raise ParameterError(f"{self.name} ({type(self).__name__}): limits reversed or equal: {lower} = "
                                  f"{value_of(self, lower)} must be below {upper} = {value_of(self, upper)}")
 
     def equations(self):
@@ -198,6 +217,9 @@ class SwitchedStop:
         return self.compliant_equations() + [Eq(self.v_rel, v, "relative velocity"),
                                              Eq(self.a_rel, a, "relative acceleration")] + \
             contact_equations(self.a_rel, self._flow(), self.sa, self.mode, self.impulse)
+
+    def jump_releases(self):
+        return [resting_release(self.mode, self.v_rel, self.v_rest)]
 
     def events(self):
         lower, upper = self._limit_keys()

@@ -258,6 +258,12 @@ class Component:
         """State events (`When`), for components with impacts, switches or resets."""
         return []
 
+    def jump_releases(self) -> list:
+        """(mode, value during a jump, value after it) for each mode that holds something another element's
+        jump must not be held by (stuck friction: its force is bounded; a resting contact: it only pushes).
+        The value after is an expression of the state the jump leaves."""
+        return []
+
     def modes_in_use(self) -> dict:
         """The modes this component's equations use (all it declares; a friction element in its smooth
         form, or with nothing to switch, uses none and so adds none to the compiled model)."""

@@ -116,6 +116,9 @@ class When:
     scene through its impulse–momentum equations, so an impact on one link changes every link
     consistently (`{self.impulse: (self.v_rel, -self.e * self.v_rel)}`). Several impulses in one
     `jump` are solved together.
+    `release=False` keeps every held element (stuck friction, resting contacts) holding during the
+    jump: for a jump that only corrects what the event location left (a friction element sticking).
+    An impact (`release=True`) frees them: what holds them carries a bounded or one-sided force.
     `rest` maps modes to their values when the events of this condition accumulate (a Zeno point:
     a ball bouncing ever lower): the jump is then made plastic (targets 0) and these modes set, and the
     run goes on instead of stopping.
@@ -130,6 +133,7 @@ class When:
     jump: dict = None
     rest: dict = None
     at_start: bool = False
+    release: bool = True
 
     def __post_init__(self):
         """Checked where it is written (the component's events()), not deep in flatten as a CasADi error."""

@@ -60,6 +60,12 @@ class Problem:
         # friction with true stiction switches modes at events an optimiser cannot differentiate
         # through: the problem is posed on the smooth (regularised) forms, and says which it smoothed
         cm, self.smoothed = cm.smoothed()
+        switched = [f"{path} ({kind})" for path, kind, form in cm.stages["flat"].switched if form == "switched"]
+        if switched:
+            raise OcpError(f"model {cm.name!r}: {', '.join(switched)} switch modes at events, which an optimiser "
+                           f"cannot differentiate through; friction is posed in its smooth form when the compiled "
+                           f"model still has its scene (not after crossing a process boundary), and a stop or a "
+                           f"rigid contact needs its compliant form (tr.ElastoGap) in an optimal control problem")
         self.cm, self.dae = cm, cm.dae
         if not self.dae.u_names:
             raise OcpError(f"model {cm.name!r} has no inputs to optimise: add an input component such as "

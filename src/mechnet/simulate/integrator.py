@@ -139,6 +139,11 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
         return values
 
     final = run.D[-1] if run.D else dae
+    if T.size and final.invariant_names:
+        # how far the constraints (and |Q| = 1) drifted by the end, in the selection that ended the run
+        c = final.invariants(float(T[-1]), *(ca.DM(np.asarray(v, dtype=float).ravel()) for v in
+                                             (run.X[-1], run.Z[-1], run._u_at(T[-1]), p, run.M[-1]))).full().ravel()
+        stats["invariants_at_end"] = float(np.max(np.abs(c))) if c.size else 0.0
     known = {}
     if T.size and all(sel is final for sel in run.D):
         # one selection throughout: its states and algebraics are the run's own; every other name is

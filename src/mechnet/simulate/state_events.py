@@ -205,11 +205,11 @@ def _hermite_root(t_a, g_a, d_a, t_b, g_b, d_b):
             a, fa = s, f
         else:
             b = s
+        if b - a < 1e-15 or abs(f) <= 1e-15 * (abs(g_a) + abs(g_b)):
+            break
         d = slope(s) * h
         step = s - f / d if d != 0.0 else 0.5 * (a + b)
         s = step if a < step < b else 0.5 * (a + b)
-        if b - a < 1e-15 or abs(f) <= 1e-15 * (abs(g_a) + abs(g_b)):
-            break
     return t_a + s * h
 
 
@@ -234,12 +234,29 @@ class StateEvents:
     _pending = None          # the bracket found by _first_crossing, for _handle_event
     _resolution = ()         # (t, time resolution of each function's event there): `_time_resolution`
 
-    def _rates(self, t, x, z):
+    def _rates(self, t, x, z, left=False):
+        """g, ġ, g̈ at (t, x, z); `left`: at a time event, the left limit of the inputs and signals."""
+        if left and t in getattr(self, "_time_event_times", ()):
+            t = np.nextafter(t, -np.inf)
         rates = built(self.dae.info, "_zero_rates_numpy", lambda: NumpyCall(zero_rates(self.dae)))
         out = rates(np.atleast_1d(float(t)), np.atleast_1d(np.asarray(x, dtype=float)),
                     np.atleast_1d(np.asarray(z, dtype=float)), np.atleast_1d(np.asarray(self._u_at(t), dtype=float)),
                     np.atleast_1d(self.p), np.atleast_1d(self.d))[0]
         return np.asarray(out).ravel().reshape(3, -1)
+
+    def _round_off(self, t, x, z):
+        """How far each zero function may sit from its value by the round-off of the states alone (a few
+        ulps of each |x|, |z|, through ∂g/∂x, ∂g/∂z): what it cannot resolve whatever the tolerance."""
+        sensitivity = built(self.dae.info, "_zero_sensitivity_numpy", lambda: NumpyCall(zero_sensitivity(self.dae)))
+        jx, jz = sensitivity(np.atleast_1d(float(t)), np.atleast_1d(np.asarray(x, dtype=float)),
+                             np.atleast_1d(np.asarray(z, dtype=float)),
+                             np.atleast_1d(np.asarray(self._u_at(t), dtype=float)), np.atleast_1d(self.p),
+                             np.atleast_1d(self.d))
+        eps = 4 * np.finfo(float).eps
+        out = np.abs(np.asarray(jx)) @ (eps * np.abs(np.asarray(x, dtype=float)))
+        if np.size(z):
+            out = out + np.abs(np.asarray(jz)) @ (eps * np.abs(np.asarray(z, dtype=float)))
+        return np.asarray(out, dtype=float).ravel()
 
     def _left_of_time_events(self, pts):
         """A piece ending at a time event is judged by its conditions' left limits there (a clutch
@@ -333,14 +350,20 @@ class StateEvents:
         if not self.dae.zero_labels:
             return None
         n = pts.size if limit is None else limit + 1
-        U = self._inputs_at(pts[:n])
+        judged = self._left_of_time_events(pts[:n])      # inputs and signals at their left limits too
+        U = self._inputs_at(judged)
         rates = mapped_in(self.dae.info.setdefault("_zero_rate_maps", {}), zero_rates(self.dae), n)
-        R = rates(self._left_of_time_events(pts[:n]).reshape(1, -1), xs[:n].T, zs[:n].T, U,
+        R = rates(judged.reshape(1, -1), xs[:n].T, zs[:n].T, U,
                   np.tile(self.p.reshape(-1, 1), n),
                   np.tile(self.d.reshape(-1, 1), n))[0]
         m = len(self.dae.zero_labels)
         G, D = R[:m].T, R[m: 2 * m].T                   # (n, m)
         dirs = np.array(self.dae.zero_directions)
+        # within the round-off of the states (not of the tolerances) while moving away from its direction
+        # is no crossing: a contact leaving its boundary at s = 1024 m reads a gap of exactly 0 for its
+        # first 2e-13 m, and a cubic through those zeros with slope 1 dips below them
+        noise = self._round_off(pts[0], xs[0], zs[0])
+        G = np.where((np.abs(G) <= noise) & (dirs != 0) & (np.sign(D) == -dirs), np.sign(D) * 1e-300, G)
         # the side at each point: its sign; at the start the armed side where it was set at that very time
         # (just after an event g may be a round-off on either side) or where g is exactly 0
         side = np.sign(G)
@@ -350,6 +373,7 @@ class StateEvents:
         side = np.take_along_axis(side, last, axis=0)
         h = np.diff(pts[:n])[:, None]
         s, ext = _cubic_extrema(G[:-1], D[:-1], G[1:], D[1:], h)
+        ext = np.where(np.abs(ext) <= noise[:, None], np.nan, ext)     # (points, functions, 2)
         hit = _predicted(dirs, side[:-1], s, ext, G[1:])
         for j in np.flatnonzero(np.any(hit, axis=1)):
             try:
@@ -367,7 +391,7 @@ class StateEvents:
         """The earliest confirmed crossing in (t_a, t_b]: (functions, lo, x_lo, z_lo, s_lo, hi, x_hi, z_hi),
         where s_lo are the sides at lo; None when re-integration shows none (a grazing prediction)."""
         dirs = np.array(self.dae.zero_directions)
-        ra, rb = self._rates(t_a, x_a, z_a), self._rates(t_b, x_b, z_b)
+        ra, rb = self._rates(t_a, x_a, z_a), self._rates(t_b, x_b, z_b, left=True)
         s, ext = _cubic_extrema(ra[0], ra[1], rb[0], rb[1], t_b - t_a)
         cand = _predicted(dirs, s_a, s, ext, rb[0])
         knots = sorted({t_a + float(v) for v in s[cand].ravel() if np.isfinite(v)})
@@ -482,8 +506,16 @@ class StateEvents:
                 best = found
         t_e, x_e, z_e = best
         dirs = np.array(self.dae.zero_directions)
-        # every function that crossed by t_e fires, in index order (two balls landing at once)
-        fired = [int(h) for h in np.flatnonzero(_allowed(dirs, s_lo, self._rates(t_e, x_e, z_e)[0]))]
+        # every function that crossed by t_e fires, in index order (two balls landing at once); one that
+        # only reached 0 within round-off while moving away from its direction has not crossed (a contact
+        # separating from its boundary: at s = 1024 m its gap reads exactly 0 for the first 1e-13 m)
+        g_e, gd_e, _ = self._rates(t_e, x_e, z_e)
+        leaving = (np.abs(g_e) <= np.abs(gd_e) * self._tol_t(t_e)) & (dirs != 0) & (np.sign(gd_e) == -dirs)
+        fired = [int(h) for h in np.flatnonzero(_allowed(dirs, s_lo, g_e) & ~leaving)]
+        if not fired and all(leaving[i] for i in crossed):
+            self._armed, self._armed_at = self._sides(t_e, (g_e, gd_e, _))[0], t_e
+            self.x, self.z = np.asarray(x_e, dtype=float).copy(), np.asarray(z_e, dtype=float).copy()
+            return t_e
         self._record_at(t_e, x_e, z_e)
         self._fire(t_e, x_e, z_e, fired or [int(crossed[0])])
         return t_e

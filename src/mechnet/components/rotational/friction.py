@@ -11,7 +11,8 @@ import casadi as ca
 from ...core.declarations import Flag, Impulse, Input, Mode, Param, Var, nonnegative, positive
 from ...core.equation import Eq, When
 from ...core.errors import ParameterError
-from ..switched import SwitchedFriction, contact_equations, relative_motion, release_event, value_of
+from ..switched import (SwitchedFriction, contact_equations, relative_motion, release_event, resting_release,
+                        value_of)
 from .interfaces import PartialCompliant
 
 
@@ -107,7 +108,11 @@ class OneWayClutch(PartialCompliant):
                                              Eq(self.a_rel, a, "relative acceleration")] + \
             contact_equations(self.a_rel, self.tau, self.sa, self.mode, self.impulse)
 
+    def jump_releases(self):
+        return [resting_release(self.mode, self.v_rel, 0.0)]
+
     def events(self):
         return [When(ca.if_else(self.mode == 0, self.v_rel, 1.0), reset={self.mode: -1.0},
-                     jump={self.impulse: (self.v_rel, 0.0)}, direction="falling", doc=f"{self.name} locks"),
+                     jump={self.impulse: (self.v_rel, 0.0)}, release=False, direction="falling",
+                     doc=f"{self.name} locks"),
                 release_event(self.sa, self.mode, self.name)]

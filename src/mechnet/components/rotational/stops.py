@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from ...core.declarations import Impulse, Mode, Param, Var, nonnegative
-from ..switched import SwitchedStop
+from ..switched import SwitchedStop, restitution
 from .interfaces import PartialCompliant
 
 
@@ -14,7 +14,7 @@ class HardStop(SwitchedStop, PartialCompliant):
 
     phi_min = Param(unit="rad", doc="lower limit of phi_rel")
     phi_max = Param(unit="rad", doc="upper limit of phi_rel")
-    e = Param(1.0, unit="1", doc="coefficient of restitution (0 plastic, 1 elastic)")
+    e = Param(1.0, unit="1", doc="coefficient of restitution (0 plastic, 1 elastic)", check=restitution)
     v_rest = Param(0.0, unit="rad/s", doc="impact speed at or below which it rests (0: only when its "
                                           "impacts accumulate)", check=nonnegative)
     v_rel = Var(unit="rad/s", doc="relative angular velocity")

@@ -9,7 +9,7 @@ import casadi as ca
 
 from ...core.declarations import Impulse, Mode, Param, Var, nonnegative
 from ...core.equation import Eq, When, der
-from ..switched import SwitchedStop
+from ..switched import SwitchedStop, restitution
 from .interfaces import PartialCompliant
 
 
@@ -19,7 +19,7 @@ class PartialRigidContact(SwitchedStop, PartialCompliant, abstract=True):
     sa = Var(unit="N", doc="path parameter: the contact force while resting, a_rel while free")
     mode = Mode(0.0, doc="0 free, -1 resting on the lower limit, +1 on the upper one")
     impulse = Impulse(doc="carrier of the impact impulse (0 between events)")
-    e = Param(1.0, unit="1", doc="coefficient of restitution (0 plastic, 1 elastic)")
+    e = Param(1.0, unit="1", doc="coefficient of restitution (0 plastic, 1 elastic)", check=restitution)
     v_rest = Param(0.0, unit="m/s", doc="impact speed at or below which the body rests (0: only when its "
                                         "impacts accumulate)", check=nonnegative)
 
