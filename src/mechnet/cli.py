@@ -1,10 +1,12 @@
-"""The `mechnet` command: run the example scenes, or simulate one scene file.
+"""The `mechnet` command: run the example scenes, simulate, export or study the accuracy of one scene file.
 
     mechnet --version
     mechnet demo [--out DIR] [--only NAME] [--dir DIR] [--debug]
     mechnet simulate FILE [--t-end T] [--rtol R] [--atol A] [--method M] [--n-out N] [--plot PNG] [--csv CSV]
                           [--debug]
     mechnet export FILE --kind fmu|c|casadi [--fmi 2|3] [--all-parameters] [--overwrite] -o OUT [--debug]
+    mechnet accuracy FILE [--t-end T] [--at T1] [--methods M ...] [--tolerances R ...] [--target E]
+                          [--workers N | --scheduler ADDRESS] [-o DIR] [--debug]
 
 Errors a user can cause (MechnetError) print one `error: ...` line and exit
 with status 2, without a traceback: the message already names the culprit

@@ -365,3 +365,97 @@ def test_an_ocp_refuses_what_it_cannot_smooth_by_name():
     crossed = pickle.loads(pickle.dumps(b.compile()))
     with pytest.raises(mn.OcpError, match=r"fr \(Friction\) switch modes"):
         ocp.Problem(crossed, t_final=1.0)
+
+
+def test_a_block_held_by_stiction_leaves_when_struck():
+    """Striker (1 kg, 1 m/s, frictionless) hits an equal block held by stiction (μs = 0.3, μk = 0.2,
+    fn = 9.81 N) through a contact with e = 1, 0.4 m apart. Friction carries a bounded force, so no
+    impulse: the striker stops and the block leaves at 1 m/s (1e-9), then slides to rest after
+    1/(μk·g) s, 1/(2μk·g) m further (1e-9; rtol 1e-10, atol 1e-12)."""
+    m = mn.Model("strike")
+    ground = m.add(tr.Fixed(name="ground"))
+    striker = m.add(tr.Mass(name="striker", m=1.0, s_start=0.0, v_start=1.0))
+    target = m.add(tr.Mass(name="target", m=1.0, s_start=0.5, v_start=0.0))
+    fr = m.add(tr.Friction(name="fr", fn=9.81, mu_k=0.2, mu_s=0.3))
+    contact = m.add(tr.Contact(name="c", e=1.0, s_contact=0.1))
+    m.connect(ground.flange, fr.flange_a)
+    m.connect(fr.flange_b, target.flange_a)
+    m.connect(striker.flange_b, contact.flange_a)
+    m.connect(contact.flange_b, target.flange_b)
+    res = mn.compile(m).simulate(1.5, n_out=16, rtol=1e-10, atol=1e-12)
+    hit = next(e.t for e in res.events if "c hits" in e.cause)
+    after = np.flatnonzero(res.t == hit)[-1]
+    assert hit == pytest.approx(0.4, abs=1e-9)
+    assert res["striker.v"][after] == pytest.approx(0.0, abs=1e-9)
+    assert res["target.v"][after] == pytest.approx(1.0, rel=1e-9)
+    a = 0.2 * 9.81
+    stick = [e.t for e in res.events if "fr sticks" in e.cause][-1]
+    assert stick == pytest.approx(hit + 1.0 / a, abs=1e-9)
+    assert res["target.s"][-1] == pytest.approx(0.5 + 1.0 / (2 * a), abs=1e-9)
+
+
+def test_a_body_resting_on_its_stop_is_knocked_off_it():
+    """m1 (1 kg) rests on its upper stop at 0.1 m, pressed up by 2 N; m2 (1 kg) comes down at 1 m/s onto
+    it (contact e = 1). A stop only pushes: m1 leaves downward at 1 m/s and m2 stops (1e-9), the stop
+    free (mode 0) — not a bilateral bond pulling m1 back."""
+    m = mn.Model("knock")
+    wall = m.add(tr.Fixed(name="wall"))
+    stop = m.add(tr.HardStop(name="stop", s_min=-10.0, s_max=0.1, e=1.0))
+    m1 = m.add(tr.Mass(name="m1", m=1.0, s_start=0.1, v_start=0.0))
+    m2 = m.add(tr.Mass(name="m2", m=1.0, s_start=0.5, v_start=-1.0))
+    push = m.add(tr.ConstantForce(name="push", f_constant=2.0))
+    contact = m.add(tr.Contact(name="c", e=1.0, s_contact=0.1))
+    m.connect(wall.flange, stop.flange_a)
+    m.connect(stop.flange_b, m1.flange_a)
+    m.connect(push.flange, m1.flange_a)
+    m.connect(m1.flange_b, contact.flange_a)
+    m.connect(contact.flange_b, m2.flange_b)
+    res = mn.compile(m).simulate(0.35, n_out=8, rtol=1e-10, atol=1e-12)
+    start = np.flatnonzero(res.t == 0.0)[-1]            # after the event at t = 0: v = 0 on its limit
+    assert res["stop.mode"][start] == 1.0                  # resting
+    hit = next(e.t for e in res.events if "c hits" in e.cause)
+    after = np.flatnonzero(res.t == hit)[-1]
+    assert hit == pytest.approx(0.3, abs=1e-9)
+    assert res["m1.v"][after] == pytest.approx(-1.0, rel=1e-9) and res["m2.v"][after] == pytest.approx(0.0, abs=1e-9)
+    assert res["stop.mode"][after] == 0.0
+
+
+def test_a_table_input_stepping_at_a_time_event_is_judged_at_its_left_limit():
+    """The clutch-and-brake scene with the clutch pressed by an input table that jumps at 0.5 s (not a
+    Step signal): the brake (no normal force) breaks away at 0.5 s exactly, as with the signal."""
+    m = mn.Model("drive")
+    motor = m.add(rot.Inertia(name="motor", J=0.1, phi_start=0.0, w_start=10.0))
+    load = m.add(rot.Inertia(name="load", J=0.3, phi_start=0.0, w_start=0.0))
+    clutch = m.add(rot.Clutch(name="clutch", fn_max=100.0, mu_k=0.3, mu_s=0.4, cgeo=0.1))
+    brake = m.add(rot.Brake(name="brake", fn_max=100.0, mu_k=0.5, mu_s=0.5, cgeo=0.1, f_normalized=0.0))
+    housing = m.add(rot.Fixed(name="housing"))
+    m.connect(motor.flange_b, clutch.flange_a)
+    m.connect(clutch.flange_b, load.flange_a)
+    m.connect(housing.flange, brake.flange_a)
+    m.connect(brake.flange_b, load.flange_b)
+    res = mn.compile(m).simulate(1.0, n_out=11, rtol=1e-10, atol=1e-12,
+                                 inputs={"clutch.f_normalized": ([0.0, 0.5, 0.5, 1.0], [0.0, 0.0, 1.0, 1.0])})
+    assert res.failure is None
+    state = {e.cause.split(" — ")[1]: e.t for e in res.events if e.kind == "state"}
+    assert state["brake breaks away"] == 0.5
+    assert state["clutch sticks"] == pytest.approx(0.75, abs=1e-9)
+
+
+def test_a_tunable_stribeck_speed_of_zero_is_the_step_to_kinetic():
+    """v_Stribeck = mn.tunable(0.0) means what the folded 0 means (no NaN from exp(−0/0)): the block on the
+    incline slides with a = g(sin θ − μk cos θ) either way (1e-9 relative)."""
+    g, theta = 9.81, 0.3
+    runs = []
+    for v_stribeck in (0.0, mn.tunable(0.0)):
+        m = mn.Model("incline")
+        block = m.add(tr.Mass(name="block", m=1.0, s_start=0.0, v_start=0.0))
+        surface = m.add(tr.Fixed(name="surface"))
+        fr = m.add(tr.Friction(name="fr", fn=g * np.cos(theta), mu_k=0.2, mu_s=0.25, v_Stribeck=v_stribeck))
+        slope = m.add(tr.ConstantForce(name="slope", f_constant=g * np.sin(theta)))
+        m.connect(surface.flange, fr.flange_a)
+        m.connect(fr.flange_b, block.flange_a)
+        m.connect(slope.flange, block.flange_b)
+        runs.append(mn.compile(m).simulate(1.0, n_out=11, rtol=1e-10, atol=1e-12))
+    a = g * (np.sin(theta) - 0.2 * np.cos(theta))
+    for res in runs:
+        assert res.failure is None and res["block.a"][-1] == pytest.approx(a, rel=1e-9)
