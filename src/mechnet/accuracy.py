@@ -96,13 +96,15 @@ class AccuracyStudy:
 
     def to_csv(self, path) -> None:
         rows = self.rows()
+        if not rows:
+            raise MechnetError("AccuracyStudy.to_csv(): the study has no runs")
         with open(path, "w", encoding="utf-8") as f:
             f.write(",".join(rows[0]) + "\n")
             for row in rows:
                 f.write(",".join(repr(v) if isinstance(v, float) else f'"{v}"' if "," in str(v) else str(v)
                                  for v in row.values()) + "\n")
 
-    def to_markdown(self) -> str:
+    def to_markdown(self, target: float = 1e-6) -> str:
         lines = [f"Work-precision study of {self.name!r}: error at t = {self.at:g} s in {', '.join(self.names[:6])}"
                  f"{' ...' if len(self.names) > 6 else ''} against {self.reference}", "",
                  "| method | rtol / steps | error | time (ms) | steps | f evals | events | reselections | drift "
@@ -112,7 +114,7 @@ class AccuracyStudy:
             lines.append(f"| {t.method} | {t.setting:g} | {t.error:.2e} | {1e3 * t.time:.3g} | {t.steps} | "
                          f"{t.evaluations} | {t.events} | {t.reselections} | {t.drift:.1e} | {note} |")
         lines += [""] + [f"- {w}" for w in self.warnings]
-        lines.append("- for error <= 1e-6: " + self.recommendation(1e-6).replace("\n", "; "))
+        lines.append(f"- for error <= {target:g}: " + self.recommendation(target).replace("\n", "; "))
         return "\n".join(lines)
 
     def recommend(self, error: float, simulate_only: bool = False):
@@ -176,13 +178,19 @@ def study(cm, t_end: float, *, at: float | None = None, names=None, methods=None
     """The work-precision study of `cm` over [0, t_end], errors at `at` (default t_end) in `names`
     (default: the reference's names, else the states). `reference(t)` -> {name: value} when the scene
     has a closed form (a scene file's `reference`). `repeat`: runs per setting, the fastest kept."""
-    at = t_end if at is None else finite_number(at, "accuracy: at (s)", MechnetError)
+    if not hasattr(cm, "dae") or not hasattr(cm, "simulate"):
+        raise MechnetError(f"accuracy: study takes a compiled model (Model.compile()), got {type(cm).__name__}")
     t_end = finite_number(t_end, "accuracy: t_end (s)", MechnetError)
+    at = t_end if at is None else finite_number(at, "accuracy: at (s)", MechnetError)
+    tolerances = _numbers(tolerances, "tolerances", lambda v: 0 < v < 1, "each in (0, 1)")
+    steps = tuple(whole_number(v, "accuracy(steps=...)", 1) for v in _numbers(steps, "steps", lambda v: v >= 1, ">= 1"))
     if not 0 < at <= t_end:
         raise MechnetError(f"accuracy: at = {at:g} s must lie in (0, t_end = {t_end:g} s]")
     dae = cm.dae
     methods = list(name_list(methods, "accuracy(methods=...)")) if methods is not None else list(METHODS)
     unknown = [m for m in methods if m not in METHODS]
+    if not methods:
+        raise MechnetError("accuracy(methods=[]): name at least one method: " + ", ".join(METHODS))
     if unknown:
         raise MechnetError(f"accuracy: unknown method {unknown[0]!r}; choose from {', '.join(METHODS)}")
     repeat = whole_number(repeat, "accuracy(repeat=...)", 1)
@@ -225,6 +233,16 @@ def study(cm, t_end: float, *, at: float | None = None, names=None, methods=None
     return AccuracyStudy(cm.name, at, names, trials, ref_text, ref_error, notes)
 
 
+def _numbers(values, what, ok, rule):
+    """A non-empty sequence of numbers obeying `rule`, or a MechnetError naming the argument."""
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+        raise MechnetError(f"accuracy({what}=...) takes a list of numbers, got {values!r:.40}")
+    out = tuple(finite_number(v, f"accuracy({what}=...)", MechnetError) for v in values)
+    if not out or not all(ok(v) for v in out):
+        raise MechnetError(f"accuracy({what}={list(values)!r:.60}): give at least one number, {rule}")
+    return out
+
+
 def _reference(cm, at, reference, tolerances, notes):
     """(values at `at`, their error estimate, what they are, the run giving the start point)."""
     tight = min(tolerances) * 1e-2
@@ -254,7 +272,8 @@ def _reference(cm, at, reference, tolerances, notes):
     b = np.array([second[n][-1] for n in names])
     scale = max(1.0, float(np.max(np.abs(a))))
     ref_error = float(np.max(np.abs(a - b)))
-    text = f"a run at rtol {tight:g} (checked by {other_method} at {tight * 0.1:g}: {ref_error:.1e} apart)"
+    text = (f"a {other_method} run at rtol {tight * 0.1:g} (checked by a run at {tight:g}: {ref_error:.1e} "
+            f"apart)")
     if ref_error > DISAGREE * tight * scale:
         notes.append(f"the reference runs disagree by {ref_error:.2g} at t = {at:g} s, far beyond their tolerance "
                      f"{tight:g}: the scene is chaotic or ill-conditioned there; compare at an earlier time (at=...)")

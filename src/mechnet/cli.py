@@ -121,18 +121,25 @@ def _accuracy(args: argparse.Namespace) -> int:
             from distributed import Client
         except ImportError:
             raise MechnetError("--scheduler needs dask.distributed: pip install 'mechnet[dask]'") from None
-        client = Client(args.scheduler)
+        try:
+            client = Client(args.scheduler, timeout=30)
+        except (OSError, TimeoutError) as exc:
+            raise MechnetError(f"--scheduler {args.scheduler}: cannot reach the Dask scheduler ({exc})") from None
     t0 = time.perf_counter()
-    result = study(cm, t_end, at=args.at, methods=args.methods, tolerances=tuple(args.tolerances or TOLERANCES),
-                   reference=scene.reference, workers=args.workers, client=client)
+    try:
+        result = study(cm, t_end, at=args.at, methods=args.methods, tolerances=tuple(args.tolerances or TOLERANCES),
+                       reference=scene.reference, workers=args.workers, client=client)
+    finally:
+        if client is not None:
+            client.close()
     out = args.out or Path("mechnet-accuracy")
     out.mkdir(parents=True, exist_ok=True)
     stem = out / f"{cm.name}_accuracy"
     import matplotlib.pyplot as plt
     plt.close(result.plot(stem.with_suffix(".png")))
-    stem.with_suffix(".md").write_text(result.to_markdown() + "\n", encoding="utf-8")
+    stem.with_suffix(".md").write_text(result.to_markdown(args.target) + "\n", encoding="utf-8")
     result.to_csv(stem.with_suffix(".csv"))
-    print(result.to_markdown())
+    print(result.to_markdown(args.target))
     print(f"\nrecommended for error <= {args.target:g}:\n{result.recommendation(args.target)}")
     print(f"\nwrote {stem}.png, .md and .csv in {time.perf_counter() - t0:.1f} s")
     return 0

@@ -23,6 +23,7 @@ from multiprocessing import get_context
 import numpy as np
 
 from .core.arguments import mapping, name_list, whole_number
+from .core.declarations import finite_number
 from .core.errors import MechnetError
 from .simulate import IntegrationWarning
 
@@ -91,9 +92,29 @@ def _explicit(cases) -> list[Case]:
         if unknown:
             raise MechnetError(f"sweep(cases=[...])[{k}]: keys are 'params', 'start', 'inputs' and 'settings', "
                                f"got {sorted(unknown)}")
-        out.append(Case(k, **{key: mapping(case.get(key), f"sweep(cases=[...])[{k}][{key!r}]")
-                              for key in ("params", "start", "inputs", "settings")}))
+        made = Case(k, **{key: mapping(case.get(key), f"sweep(cases=[...])[{k}][{key!r}]")
+                          for key in ("params", "start", "inputs", "settings")})
+        _check_settings(made.settings, f"sweep(cases=[...])[{k}]['settings']")
+        out.append(made)
     return out
+
+
+_OWN = {"t_end", "params", "start", "inputs"}     # set by the sweep itself, per case
+
+
+def _check_settings(settings: dict, what: str) -> None:
+    """Keywords the sweep passes on to cm.simulate: simulate's own, and not those the sweep sets."""
+    import inspect
+
+    from .simulate.integrator import simulate as simulate_function
+    allowed = set(inspect.signature(simulate_function).parameters) - {"cm"} - _OWN
+    for key in settings:
+        if key == "start":
+            raise MechnetError(f"{what}: start values of a sweep are `starts={{name: [values]}}`")
+        if key in _OWN:
+            raise MechnetError(f"{what}: {key!r} is set by the sweep itself, not a simulate() setting")
+        if key not in allowed:
+            raise MechnetError(f"{what}: {key!r} is not a setting of cm.simulate ({', '.join(sorted(allowed))})")
 
 
 def run_case(cm, case: Case, settings: dict) -> Run:
@@ -220,9 +241,17 @@ def sweep(cm, *, t_end: float, params=None, starts=None, inputs=None, cases=None
     names whose values (at `at`, default each run's end) join the table; `repeat`: runs per case, the
     best wall time kept (the first run of a setting builds its integrators). Parameters must be tunable
     (`mn.tunable(...)` or `mn.every_parameter_tunable()`): a folded one is refused by its run."""
-    from .compile.compiled import CompiledModel
-    if not isinstance(cm, CompiledModel) and not hasattr(cm, "simulate"):
+    if not hasattr(cm, "simulate") or not hasattr(cm, "dae"):
         raise MechnetError(f"sweep takes a compiled model (Model.compile()), got {type(cm).__name__}")
+    t_end = finite_number(t_end, "sweep(t_end=...)", MechnetError)
+    if t_end <= 0:
+        raise MechnetError(f"sweep(t_end={t_end:g}) must be > 0")
+    if at is not None:
+        at = finite_number(at, "sweep(at=...)", MechnetError)
+    if combine not in ("grid", "zip"):
+        raise MechnetError(f"sweep(combine={combine!r}): 'grid' (every combination) or 'zip' (the i-th values "
+                           f"together)")
+    _check_settings(simulate, "sweep(...)")
     if cases is not None:
         if params or starts or inputs:
             raise MechnetError("sweep: give cases=[...] or params/starts/inputs, not both")

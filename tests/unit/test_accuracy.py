@@ -63,7 +63,7 @@ def test_a_five_link_chain_error_falls_four_decades_and_the_recommendation_holds
     cm = chain(5).compile()
     result = accuracy.study(cm, 1.0, methods=["cvodes-adams", "cvodes-bdf", "rk", "scipy-dop853"], tolerances=TOLS,
                             steps=(30, 100, 300), repeat=1)
-    assert "a run at rtol 1e-12" in result.reference and not result.warnings
+    assert "run at rtol 1e-13 (checked by a run at 1e-12" in result.reference and not result.warnings
     _four_decades(result, "cvodes-adams")
     _four_decades(result, "cvodes-bdf")
     best, _ = _reaches(cm, result, 1e-6)
@@ -72,7 +72,7 @@ def test_a_five_link_chain_error_falls_four_decades_and_the_recommendation_holds
     rk = sorted((t.setting, t.error) for t in result.trials if t.method == "rk")
     assert rk[0][1] > rk[-1][1] * 1e3                  # RK4: 10x the steps, about 1e4 less error
     table = result.to_markdown()
-    assert "| cvodes-adams | 1e-06 |" in table and "for error <= 1e-6" in table
+    assert "| cvodes-adams | 1e-06 |" in table and "for error <= 1e-06" in table
 
 
 def test_the_four_bar_error_falls_four_decades_and_its_closure_is_measured():
@@ -125,6 +125,11 @@ def test_the_command_line_writes_its_plot_against_the_scenes_reference(tmp_path,
     (dict(methods=["rk45"]), "unknown method 'rk45'"),
     (dict(names=["j0.omega"]), "no reference value for 'j0.omega'"),
     (dict(repeat=0), "repeat"),
+    (dict(tolerances=[]), "tolerances"),
+    (dict(tolerances=1e-6), "tolerances"),
+    (dict(tolerances=[-1e-6]), "tolerances"),
+    (dict(steps=[2.7]), "steps"),
+    (dict(methods=[]), "at least one method"),
 ])
 def test_bad_arguments_are_refused_by_name(kwargs, match):
     with pytest.raises(mn.MechnetError, match=match):

@@ -83,10 +83,16 @@ def test_failures_keep_their_partial_result_and_reason():
     (dict(params={"spring.c": [1.0]}, outputs=["j1.omega"]), "'j1.omega' is not a name"),
     (dict(params={"spring.c": [1.0]}, workers=-1), "workers"),
     (dict(params=[("spring.c", 1.0)]), "takes a mapping"),
+    (dict(params={"spring.c": [1.0]}, start={"j1.phi": 0.1}), "starts="),
+    (dict(params={"spring.c": [1.0]}, rtoll=1e-6), "'rtoll' is not a setting of cm.simulate"),
+    (dict(cases=[{"settings": {"t_end": 1.0}}]), "'t_end' is set by the sweep itself"),
+    (dict(params={"spring.c": [1.0]}, at="end"), "at"),
+    (dict(params={"spring.c": [1.0]}, t_end=-1.0), "must be > 0"),
 ])
 def test_bad_arguments_are_refused_by_name(kwargs, match):
+    kwargs = {"t_end": 1.0, **kwargs}
     with pytest.raises(mn.MechnetError, match=match):
-        mn.sweep(oscillator(), t_end=1.0, **kwargs)
+        mn.sweep(oscillator(), **kwargs)
 
 
 def test_a_dask_cluster_gives_the_same_numbers_as_sequential_runs():

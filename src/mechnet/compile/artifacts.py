@@ -111,7 +111,7 @@ class FlatSystem:
     modes: tuple = ()             # FlatMode: discrete variables, the DAE's d
     unit_quaternions: tuple = ()  # (what, names): quaternion states, renormalised at restarts, |Q| − 1 watched
     switched: tuple = ()          # (path, type, form) of each component with modes: friction, stops, relays
-    releases: tuple = ()          # (mode index, value during a jump, value after it): `Component.jump_releases`
+    releases: tuple = ()          # (mode index, released value, stays, value when released): `jump_releases`
 
     def expand(self, exprs: list) -> list:
         """`exprs` with the intermediates replaced by their definitions (sharing kept: one pass)."""

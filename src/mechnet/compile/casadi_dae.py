@@ -283,39 +283,42 @@ def _events(flat, x_index, symbols, current, args, x, resolve, ode=None, alg=Non
     state_pos = {i: k for k, i in enumerate(x_index)}
     d = args[5]
 
-    released = [(k, during, flat.expand([in_base(resolve(after))])[0]) for k, during, after in releases]
-    if released:
-        # during a jump, held friction slides and resting contacts are free: what holds them carries a
-        # bounded force (friction) or pushes only (a contact), so it takes no part in another element's
-        # impulse (a stuck block hit by another leaves; a body resting on its stop is knocked off it)
-        held = ca.vertcat(*[d[k] for k, _, _ in released])
-        free = ca.vertcat(*[ca.SX(during) for _, during, _ in released])
-        ode_j, alg_j = ca.substitute(ode, held, free), ca.substitute(alg, held, free)
-    else:
-        ode_j, alg_j = ode, alg
+    released = [(k, during, flat.expand([in_base(resolve(stays))])[0], flat.expand([in_base(resolve(after))])[0])
+                for k, during, stays, after in releases]
+    held = ca.vertcat(*[d[k] for k, _, _, _ in released]) if released else None
+
+    def with_modes(values):
+        """ode and alg with the released elements' modes replaced by `values`."""
+        return ca.substitute(ode, held, values), ca.substitute(alg, held, values)
+
+    def solve_jump(zc, goal, vel, modes):
+        o, a = with_modes(modes) if modes is not None else (ode, alg)
+        B, W = _jump(o, a, args, vel, [d[k] for k, _, _ in zc.jumps])
+        return x + B @ ca.solve(W, goal - vel)
 
     def jumped(zc, plastic):
-        """x after the jump of zc (x itself when it has none)."""
+        """(x after the jump of zc, the released elements' modes after it): x itself and no modes without a
+        jump. An impact is solved with every held element released; those its state says stay held are held
+        rigidly in a second solve from the same start (their speed stays exactly 0), the others keep the
+        first solve's freedom and get their mode from the final state."""
         if not zc.jumps:
-            return x
+            return x, []
         vel = flat.expand([ca.vertcat(*[in_base(resolve(v)) for _, v, _ in zc.jumps])])[0]
         goal = ca.DM.zeros(len(zc.jumps)) if plastic else \
             flat.expand([ca.vertcat(*[in_base(resolve(g)) for _, _, g in zc.jumps])])[0]
-        B, W = _jump(ode_j if zc.release else ode, alg_j if zc.release else alg, args, vel,
-                     [d[k] for k, _, _ in zc.jumps])
-        return x + B @ ca.solve(W, goal - vel)
-
-    def after_jump(zc, x_new):
-        """The released elements' modes after the jump of zc, from the states it leaves (none without a
-        jump); zc's own mode resets come after and override."""
-        if not zc.jumps or not released or not zc.release:
-            return []
-        values = ca.substitute(ca.vertcat(*[a for _, _, a in released]), x, x_new)
-        return [(k, values[j]) for j, (k, _, _) in enumerate(released)]
+        if not released or not zc.release:
+            return solve_jump(zc, goal, vel, None), []
+        free = ca.vertcat(*[ca.SX(during) for _, during, _, _ in released])
+        x_free = solve_jump(zc, goal, vel, free)
+        stays = ca.substitute(ca.vertcat(*[s for _, _, s, _ in released]), x, x_free)
+        modes = ca.vertcat(*[ca.if_else(stays[j], held[j], free[j]) for j in range(stays.numel())])
+        x_new = solve_jump(zc, goal, vel, modes)
+        after = ca.substitute(ca.vertcat(*[a for _, _, _, a in released]), x, x_new)
+        return x_new, [(k, ca.if_else(stays[j], held[j], after[j])) for j, (k, _, _, _) in enumerate(released)]
 
     transitions, rests = [], []
     for n, zc in enumerate(flat.zero_crossings):
-        x_jumped = jumped(zc, False)
+        x_jumped, released_modes = jumped(zc, False)
         x_plus = [x_jumped[k] for k in range(x.numel())]
         for i, value in zc.resets:
             if i not in state_pos:
@@ -324,13 +327,13 @@ def _events(flat, x_index, symbols, current, args, x, resolve, ode=None, alg=Non
                                      f"({', '.join(flat.variables[j].name for j in x_index)})")
             x_plus[state_pos[i]] = in_base(value)
         transitions.append(_transition(f"transition_{n}", flat, args, x_plus, zc.mode_resets, in_base, resolve,
-                                       after_jump(zc, x_jumped)))
+                                       released_modes))
         if zc.rest is None:
             rests.append(None)
         else:
-            x_rest = jumped(zc, True)
+            x_rest, rest_modes = jumped(zc, True)
             rests.append(_transition(f"rest_{n}", flat, args, [x_rest[k] for k in range(x.numel())], zc.rest,
-                                     in_base, resolve, after_jump(zc, x_rest)))
+                                     in_base, resolve, rest_modes))
     return _fn("zero", args, g, "g"), tuple(transitions), tuple(rests)
 
 

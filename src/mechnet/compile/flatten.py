@@ -207,12 +207,13 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
                      for comp in components if comp.modes)
     releases = []
     for comp in components:
-        for mode, during, after in comp.jump_releases():
+        for mode, during, stays, after in comp.jump_releases():
             h = ca.SX(mode).element_hash()
             if h not in mode_at:
                 raise StructureError(f"{comp.path} ({type(comp).__name__}): jump_releases() names {mode}, which "
                                      f"is not one of its modes in use")
-            releases.append((mode_at[h], float(during), _frames_in(ca.SX(after), tree)))
+            releases.append((mode_at[h], float(during), _frames_in(ca.SX(stays), tree),
+                             _frames_in(ca.SX(after), tree)))
     return FlatSystem(model.name, tuple(variables), tuple(equations), tuple(parameters), der_of, time,
                       tuple(sorted(effects.items())), time_events=tuple(sorted(time_events)),
                       folded_parameters=tuple(folded), zero_crossings=tuple(zero_crossings),

@@ -123,10 +123,12 @@ def impact_event(gap, v, e, v_rest, mode, side, impulse, name, what):
 
 
 def resting_release(mode, v, v_rest):
-    """A resting contact is free during another element's jump (it can only push): after it, it rests on
-    when the jump left it still (|v| ≤ v_rest, at least 1e-10), else it is free and, if the jump drives it
-    into its limit, its own impact follows in the same event iteration (sequential impacts)."""
-    return (mode, 0.0, ca.if_else(ca.fabs(v) <= ca.fmax(v_rest, 1e-10), mode, 0.0))
+    """A resting contact is free during another element's jump (it can only push). It stays resting —
+    held rigidly in the jump, its speed exactly 0 — when the freed jump would drive it into its limit no
+    faster than v_rest (or leave it still); else it is free (0) and, driven into its limit, has its own
+    impact in the same event iteration (sequential impacts). `mode·v` is the speed into the limit."""
+    into = mode * v
+    return (mode, 0.0, ca.logic_and(into >= -1e-12, into <= ca.fmax(v_rest, 1e-12)), 0.0)
 
 
 def release_event(sa, mode, name):
@@ -187,13 +189,14 @@ class SwitchedFriction:
                                         force, self._static_limit())
 
     def jump_releases(self):
-        """Stuck, it slides during another element's jump (its force is bounded, its impulse none), and
-        after it slides on when the jump left it moving (by more than v_small), or stays stuck."""
+        """Stuck, it slides during another element's jump (its force is bounded, its impulse none; any
+        sliding sign gives the same ∂ẋ/∂λ). It stays stuck — held rigidly in the jump, its speed exactly
+        0 — when the freed jump would move it by no more than v_small; else it slides on in the direction
+        the jump gave it."""
         if self.form() != "switched":
             return []
-        moving = ca.fabs(self.v_rel) > self.v_small
-        return [(self.mode, FORWARD, ca.if_else(self.mode == HELD, ca.if_else(moving, ca.sign(self.v_rel), HELD),
-                                                self.mode))]
+        return [(self.mode, FORWARD, ca.logic_or(self.mode != HELD, ca.fabs(self.v_rel) <= self.v_small),
+                 ca.sign(self.v_rel))]
 
     def events(self):
         if self.form() != "switched":

@@ -259,9 +259,12 @@ class Component:
         return []
 
     def jump_releases(self) -> list:
-        """(mode, value during a jump, value after it) for each mode that holds something another element's
-        jump must not be held by (stuck friction: its force is bounded; a resting contact: it only pushes).
-        The value after is an expression of the state the jump leaves."""
+        """(mode, value while released, stays, value when released) for each mode that holds something
+        another element's impact must not be held by (stuck friction: its force is bounded; a resting
+        contact: it only pushes). The impact is solved once with every such mode released; `stays` (an
+        expression of that jump's state) says which keep their mode — they are held rigidly in the final
+        jump, so a held element's speed stays exactly 0 — and the others get `value when released`,
+        evaluated at the final state."""
         return []
 
     def modes_in_use(self) -> dict:
