@@ -459,3 +459,43 @@ def test_a_tunable_stribeck_speed_of_zero_is_the_step_to_kinetic():
     a = g * (np.sin(theta) - 0.2 * np.cos(theta))
     for res in runs:
         assert res.failure is None and res["block.a"][-1] == pytest.approx(a, rel=1e-9)
+
+
+def test_a_held_element_that_an_impact_leaves_still_keeps_no_speed():
+    """A striker at 5e-7 m/s (below v_small = 1e-6) hits a block held by stiction (contact e = 1): the
+    freed jump would move the block slower than v_small, so it stays stuck — held rigidly in the impact,
+    its speed exactly 0 (no creep over 1000 s, not 5e-4 m)."""
+    m = mn.Model("soft_strike")
+    ground = m.add(tr.Fixed(name="ground"))
+    striker = m.add(tr.Mass(name="striker", m=1.0, s_start=0.0, v_start=5e-7))
+    target = m.add(tr.Mass(name="target", m=1.0, s_start=0.5, v_start=0.0))
+    fr = m.add(tr.Friction(name="fr", fn=9.81, mu_k=0.2, mu_s=0.3))
+    contact = m.add(tr.Contact(name="c", e=1.0, s_contact=0.1))
+    m.connect(ground.flange, fr.flange_a)
+    m.connect(fr.flange_b, target.flange_a)
+    m.connect(striker.flange_b, contact.flange_a)
+    m.connect(contact.flange_b, target.flange_b)
+    res = mn.compile(m).simulate(0.4 / 5e-7 + 1000.0, n_out=11, rtol=1e-10, atol=1e-12)
+    assert any("c hits" in e.cause for e in res.events)
+    assert res["fr.mode"][-1] == 0.0 and res["target.v"][-1] == 0.0 and res["target.s"][-1] == 0.5
+    assert res["striker.v"][-1] == pytest.approx(-5e-7, rel=1e-9)        # bounced off the held block
+
+
+def test_a_slow_knock_into_a_resting_stop_keeps_it_resting():
+    """m1 rests on its upper stop (v_rest = 0.5 m/s); m2 below pushes it up into the stop at 0.3 m/s:
+    slower than v_rest, the stop keeps holding (plastically: m1's speed exactly 0, never past s_max)."""
+    m = mn.Model("slow_knock")
+    wall = m.add(tr.Fixed(name="wall"))
+    stop = m.add(tr.HardStop(name="stop", s_min=-10.0, s_max=0.1, e=1.0, v_rest=0.5))
+    m1 = m.add(tr.Mass(name="m1", m=1.0, s_start=0.1, v_start=0.0))
+    m2 = m.add(tr.Mass(name="m2", m=1.0, s_start=-0.3, v_start=0.3))
+    push = m.add(tr.ConstantForce(name="push", f_constant=2.0))
+    contact = m.add(tr.Contact(name="c", e=1.0, s_contact=0.1))
+    m.connect(wall.flange, stop.flange_a)
+    m.connect(stop.flange_b, m1.flange_a)
+    m.connect(push.flange, m1.flange_a)
+    m.connect(m2.flange_b, contact.flange_a)
+    m.connect(contact.flange_b, m1.flange_b)
+    res = mn.compile(m).simulate(3.0, n_out=7, rtol=1e-10, atol=1e-12)
+    assert any("c hits" in e.cause for e in res.events)
+    assert np.max(res["m1.s"]) <= 0.1 + 1e-12 and res["m1.v"][-1] == 0.0 and res["stop.mode"][-1] == 1.0
