@@ -43,7 +43,9 @@ class MonitoredPieces:
         more than MAX_PIECE_POINTS points the piece ends earlier, inside an output interval if need be.
         """
         n_int = grid.size - 1
-        self._time_event_times = frozenset(event_at)
+        # pieces ending at a time event, or at the end of the run (a step exactly there takes effect after
+        # the run), are judged at the left limits of the inputs and signals
+        self._time_event_times = frozenset(event_at) | {float(grid[-1])}
         longest = n_int
         per_piece = 1
         density = 4                                   # monitor points per output interval
