@@ -39,6 +39,7 @@ METHODS = ("auto", "cvodes-adams", "cvodes-bdf", "idas", "rk", "collocation", "b
 ATOL_RATIO = 1e-2          # atol = rtol · ATOL_RATIO (scaled by each state's nominal value, as in simulate)
 UNRELIABLE = 10.0          # errors within this factor of the reference's own error are not trusted
 DISAGREE = 1e3             # reference runs differing by more than this × their tolerance: chaotic
+TIE = 0.2                  # runs within 20 % of the fastest time count as equally fast (timing noise)
 REFERENCE_STEPS = 10 ** 7  # the reference runs' step limit (one output interval over the whole run)
 
 
@@ -122,7 +123,11 @@ class AccuracyStudy:
         when asked), or None."""
         fits = [t for t in self.trials if t.status == "ok" and t.reliable and t.error <= error
                 and (not simulate_only or t.method in SIMULATE)]
-        return min(fits, key=lambda t: t.time) if fits else None
+        if not fits:
+            return None
+        # times within TIE of the fastest are a tie on millisecond runs: the most accurate of those wins
+        fastest = min(t.time for t in fits)
+        return min((t for t in fits if t.time <= (1 + TIE) * fastest), key=lambda t: (t.error, t.time))
 
     def recommendation(self, error: float) -> str:
         """What to paste: the cheapest cm.simulate setting reaching `error`, and the cheapest run of any
