@@ -499,3 +499,21 @@ def test_a_slow_knock_into_a_resting_stop_keeps_it_resting():
     res = mn.compile(m).simulate(3.0, n_out=7, rtol=1e-10, atol=1e-12)
     assert any("c hits" in e.cause for e in res.events)
     assert np.max(res["m1.s"]) <= 0.1 + 1e-12 and res["m1.v"][-1] == 0.0 and res["stop.mode"][-1] == 1.0
+
+
+@pytest.mark.parametrize("s0, match", [(1.5, r"stop \(HardStop\): the relative position must start at or below s_max "
+                                                r"\(it starts 0.5 beyond it\)"),
+                                       (-0.25, r"at or above s_min \(it starts 0.25 beyond it\)")])
+def test_a_start_outside_the_stops_is_refused_by_name(s0, match):
+    """A body started beyond a stop would never meet its impact condition (it starts on the wrong side):
+    the start is refused, naming the stop, the limit and by how much."""
+    m = mn.Model("outside")
+    wall = m.add(tr.Fixed(name="wall"))
+    stop = m.add(tr.HardStop(name="stop", s_min=0.0, s_max=1.0, e=0.5))
+    mass = m.add(tr.Mass(name="mass", m=1.0, s_start=s0, v_start=0.0))
+    m.connect(wall.flange, stop.flange_a)
+    m.connect(stop.flange_b, mass.flange_a)
+    cm = m.compile()
+    with pytest.raises(mn.InitializationError, match=match):
+        cm.simulate(1.0)
+    assert cm.simulate(1.0, start={"mass.s": 0.5}).failure is None          # inside: fine

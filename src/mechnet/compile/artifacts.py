@@ -112,6 +112,7 @@ class FlatSystem:
     unit_quaternions: tuple = ()  # (what, names): quaternion states, renormalised at restarts, |Q| − 1 watched
     switched: tuple = ()          # (path, type, form) of each component with modes: friction, stops, relays
     releases: tuple = ()          # (mode index, released value, stays, value when released): `jump_releases`
+    requirements: tuple = ()      # (expression >= 0 at the start, what): `Component.start_requirements`
 
     def expand(self, exprs: list) -> list:
         """`exprs` with the intermediates replaced by their definitions (sharing kept: one pass)."""

@@ -162,6 +162,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     zero, transitions, rests = _events(flat, x_index, symbols, current, args, x, resolve, ode_expr, alg_expr,
                                        original.releases)
     invariants = _fn("invariants", args, inv, "c")
+    requirements = _requirements(original, flat, symbols, current, args, survivor, aliases)
     x_names = tuple(variables[i].name for i in x_index)
     z_names = tuple(variables[i].name for i in z_index)
     units = {v.name: v.unit for v in original.variables}
@@ -176,7 +177,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
             "observed_only": _count_observed_only(value, depends, flat, z_index, original),
             "nominal": nominal, "quaternions": quaternions,
             "zero_at_start": tuple(zc.at_start for zc in flat.zero_crossings), "rest_transition": rests,
-            "impulses": tuple(m.name for m in modes if m.impulse)}
+            "impulses": tuple(m.name for m in modes if m.impulse), "start_requirements": requirements}
     return SemiExplicitDAE(
         name=flat.name, t=t, x=x, z=z, u=u, p=p, d=d,
         x_names=x_names, z_names=z_names,
@@ -193,6 +194,24 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
         units=units, starts=starts, guesses=guesses,
         u_default=tuple(variables[i].input_default for i in u_index),
         p_value=tuple(q.value for q in flat.parameters), d_value=tuple(m.start for m in modes), time_events=flat.time_events, info=info)
+
+
+def _requirements(original, flat, symbols, current, args, survivor, aliases):
+    """(Function (t,x,z,u,p,d) -> values that must be >= 0 at the start, what each is), or None."""
+    if not original.requirements:
+        return None
+    resolve = _without_aliases(original, survivor, aliases)
+    position = {s.element_hash(): i for i, s in enumerate(symbols)}
+    exprs = []
+    for expr, _ in original.requirements:
+        expr = resolve(expr)
+        used = [position[s.element_hash()] for s in ca.symvar(expr) if s.element_hash() in position]
+        subs = [(symbols[i], current(i)) for i in used if current(i) is not symbols[i]]
+        if subs:
+            expr = ca.substitute(expr, ca.vertcat(*[a for a, _ in subs]), ca.vertcat(*[b for _, b in subs]))
+        exprs.append(expr)
+    values = flat.expand([ca.vertcat(*exprs)])[0]
+    return _fn("start_requirements", args, values, "r"), tuple(text for _, text in original.requirements)
 
 
 def _quaternion_states(original, variables, x_index, x):

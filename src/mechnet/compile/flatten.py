@@ -205,6 +205,8 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
 
     switched = tuple((comp.path, type(comp).__name__, comp.form() if hasattr(comp, "form") else "switched")
                      for comp in components if comp.modes)
+    requirements = tuple((_frames_in(ca.SX(expr), tree), text) for comp in components
+                         for expr, text in comp.start_requirements())
     releases = []
     for comp in components:
         for mode, during, stays, after in comp.jump_releases():
@@ -220,7 +222,7 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
                       multibody=tree, observed_only=tuple(tree.observed) if tree is not None else (),
                       intermediates=tree.intermediates if tree is not None else ((), ()), modes=tuple(modes),
                       unit_quaternions=_unit_quaternions(components), switched=switched,
-                      releases=tuple(releases))
+                      releases=tuple(releases), requirements=requirements)
 
 
 def _unit_quaternions(components) -> tuple:

@@ -224,6 +224,18 @@ class SwitchedStop:
     def jump_releases(self):
         return [resting_release(self.mode, self.v_rel, self.v_rest)]
 
+    def start_requirements(self):
+        lower, upper = self._limit_keys()
+        rel = self._position()
+        out = []
+        if lower:
+            out.append((rel - getattr(self, lower), f"{self.name} ({type(self).__name__}): the relative position must "
+                                                    f"start at or above {lower}"))
+        if upper:
+            out.append((getattr(self, upper) - rel, f"{self.name} ({type(self).__name__}): the relative position must "
+                                                    f"start at or below {upper}"))
+        return out
+
     def events(self):
         lower, upper = self._limit_keys()
         rel = self._position()

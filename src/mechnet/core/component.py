@@ -258,6 +258,11 @@ class Component:
         """State events (`When`), for components with impacts, switches or resets."""
         return []
 
+    def start_requirements(self) -> list:
+        """(expression, what) pairs that must be >= 0 at the start of a run (a body inside its stops);
+        the simulator refuses a start that breaks one, naming it."""
+        return []
+
     def jump_releases(self) -> list:
         """(mode, value while released, stays, value when released) for each mode that holds something
         another element's impact must not be held by (stuck friction: its force is bounded; a resting

@@ -114,6 +114,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
 
     wall = _time.perf_counter()
     init = initialize(dae, t_start, plan.constant, p, starts, guess or {}, steady_state, d)
+    _check_requirements(dae, t_start, init, plan, p, d, rtol, atol)
     events = breakpoints((*dae.time_events, *plan.time_events), t_start, t_end)
     grid = output_grid(grid, events)
     run = Run(cm, dae, choice, rtol, atol, max_steps, plan, p, d, init)
@@ -254,3 +255,15 @@ def _observe(dae, T, X, Z, plan, p, D) -> np.ndarray:
     y, = observed(T.reshape(1, -1), X.T, Z.T, U, np.tile(p.reshape(-1, 1), n), D.reshape(n, -1).T)
     return y.T
 
+
+def _check_requirements(dae, t, init, plan, p, d, rtol, atol):
+    """A start that breaks a component's start requirement (a body outside its stops, which no event
+    would ever catch) is refused, naming the requirement and by how much it is broken."""
+    required = dae.info.get("start_requirements")
+    if not required:
+        return
+    fn, texts = required
+    values = fn(t, init.x, init.z, plan.constant, p, d).full().ravel()
+    for value, text in zip(values, texts):
+        if value < -10 * (rtol + atol):
+            raise InitializationError(f"{text} (it starts {-value:.6g} beyond it); start it inside")
