@@ -551,7 +551,9 @@ class StateEvents:
             near[crossed] = np.maximum(near[crossed], 2 * np.maximum(np.abs(g_left[crossed]),
                                                                      np.abs(gd_left[crossed]) * self._tol_t(t_e)))
             x_now, d_now, u_e = np.asarray(x_e, dtype=float), self.d, self._u_at(t_e)
-            for h in fired:                   # one after the other: each sees the resets before it
+            for n_done, h in enumerate(fired):  # one after the other: each sees the resets before it
+                if n_done and z_e.size:         # and the algebraic variables they leave (a loop's rates)
+                    z_e = solve_algebraic(self.dae, t_e, x_now, z_e, u_e, self.p, d_now)
                 x_plus, d_plus = self.dae.transition[h](t_e, x_now, z_e, u_e, self.p, d_now)
                 x_now, d_now = np.asarray(x_plus, dtype=float).ravel(), np.asarray(d_plus, dtype=float).ravel()
             self.x, self.d = x_now, d_now
