@@ -112,6 +112,9 @@ class AccuracyStudy:
                  "| note |", "|---|---|---|---|---|---|---|---|---|---|"]
         for t in self.trials:
             note = t.reason if t.status != "ok" else ("" if t.reliable else "within 10x of the reference's error")
+            if t.status == "skipped":
+                lines.append(f"| {t.method} | - | - | - | - | - | - | - | - | skipped: {note} |")
+                continue
             lines.append(f"| {t.method} | {t.setting:g} | {t.error:.2e} | {1e3 * t.time:.3g} | {t.steps} | "
                          f"{t.evaluations} | {t.events} | {t.reselections} | {t.drift:.1e} | {note} |")
         lines += [""] + [f"- {w}" for w in self.warnings]

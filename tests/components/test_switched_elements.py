@@ -29,6 +29,19 @@ def block(friction, push=5.0, c=10.0, s0=0.0):
     return m
 
 
+def pushed_block():
+    """A 1 kg block pushed by the input `push.f` on a surface with friction (μk = 0.2, μs = 0.3, fn = 9.81 N)."""
+    m = mn.Model("block_push")
+    mass = m.add(tr.Mass(name="mass", m=1.0, s_start=0.0, v_start=0.0))
+    push = m.add(tr.Force(name="push"))
+    ground = m.add(tr.Fixed(name="ground"))
+    fr = m.add(tr.Friction(name="fr", fn=9.81, mu_k=0.2, mu_s=0.3))
+    m.connect(push.flange, mass.flange_a)
+    m.connect(ground.flange, fr.flange_a)
+    m.connect(fr.flange_b, mass.flange_b)
+    return m
+
+
 # ---- bad input ---------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("make, match", [
@@ -114,15 +127,7 @@ def test_ocp_poses_friction_in_its_smooth_form_and_says_so():
     """A 1 kg block moved 1 m in 2 s against friction (μk = 0.2, μs = 0.3) by a bounded force: the
     problem is posed on the smooth form (the switched one has events IPOPT cannot see)."""
     from mechnet import ocp
-    m = mn.Model("block_push")
-    mass = m.add(tr.Mass(name="mass", m=1.0, s_start=0.0, v_start=0.0))
-    push = m.add(tr.Force(name="push"))
-    ground = m.add(tr.Fixed(name="ground"))
-    fr = m.add(tr.Friction(name="fr", fn=9.81, mu_k=0.2, mu_s=0.3))
-    m.connect(push.flange, mass.flange_a)
-    m.connect(ground.flange, fr.flange_a)
-    m.connect(fr.flange_b, mass.flange_b)
-    prob = ocp.Problem(m.compile(), t_final=2.0)
+    prob = ocp.Problem(pushed_block().compile(), t_final=2.0)
     assert prob.smoothed == ("fr",) and prob.dae.d_names == ()
     prob.bounds("push.f", -10.0, 10.0)
     prob.subject_to(prob.at_end(prob.var("mass.s")) == 1.0)
@@ -354,15 +359,7 @@ def test_an_ocp_refuses_what_it_cannot_smooth_by_name():
     m.connect(push.flange, mass.flange_b)
     with pytest.raises(mn.OcpError, match=r"stop \(HardStop\) switch modes.*tr.ElastoGap"):
         ocp.Problem(m.compile(), t_final=1.0)
-    b = mn.Model("block_push")
-    mass = b.add(tr.Mass(name="mass", m=1.0, s_start=0.0, v_start=0.0))
-    push = b.add(tr.Force(name="push"))
-    ground = b.add(tr.Fixed(name="ground"))
-    fr = b.add(tr.Friction(name="fr", fn=9.81, mu_k=0.2, mu_s=0.3))
-    b.connect(push.flange, mass.flange_a)
-    b.connect(ground.flange, fr.flange_a)
-    b.connect(fr.flange_b, mass.flange_b)
-    crossed = pickle.loads(pickle.dumps(b.compile()))
+    crossed = pickle.loads(pickle.dumps(pushed_block().compile()))
     with pytest.raises(mn.OcpError, match=r"fr \(Friction\) switch modes"):
         ocp.Problem(crossed, t_final=1.0)
 
@@ -517,3 +514,31 @@ def test_a_start_outside_the_stops_is_refused_by_name(s0, match):
     with pytest.raises(mn.InitializationError, match=match):
         cm.simulate(1.0)
     assert cm.simulate(1.0, start={"mass.s": 0.5}).failure is None          # inside: fine
+
+
+class _BadJump(tr.PartialOneFlange):
+    """A component whose When jumps along a plain Mode (not an Impulse), or rests a state."""
+
+    on = mn.Mode(0.0)
+    v = mn.Var(unit="m/s")
+    misuse = "jump"
+
+    def equations(self):
+        return [mn.Eq(self.v, mn.der(self.flange.s)), mn.Eq(self.flange.f, 0.0)]
+
+    def events(self):
+        if self.misuse == "jump":
+            return [mn.When(self.flange.s, jump={self.on: (self.v, 0.0)}, direction="falling")]
+        return [mn.When(self.flange.s, rest={self.v: 0.0}, direction="falling")]
+
+
+@pytest.mark.parametrize("misuse, match", [("jump", r"bad \(_BadJump\), event 1: a jump's key must be an Impulse"),
+                                           ("rest", r"bad \(_BadJump\), event 1: a rest target must be a Mode")])
+def test_a_jump_or_rest_on_the_wrong_kind_of_variable_is_refused_by_name(misuse, match):
+    m = mn.Model("bad_jump")
+    bad = m.add(_BadJump(name="bad"))
+    bad.misuse = misuse
+    mass = m.add(tr.Mass(name="mass", m=1.0, s_start=1.0, v_start=0.0))
+    m.connect(bad.flange, mass.flange_a)
+    with pytest.raises(mn.StructureError, match=match):
+        m.compile()

@@ -157,6 +157,13 @@ class SwitchedFriction:
     `_characteristic()` → (Coulomb, viscous, Stribeck, v_Stribeck), `_coefficient_keys()` the parameters
     whose all being folded zeros makes the element absent."""
 
+    def check_static_above_kinetic(self):
+        """mu_s >= mu_k: a surface holds at least what it resists sliding with (the μ-form elements)."""
+        if value_of(self, "mu_s") < value_of(self, "mu_k"):
+            raise ParameterError(f"{self.name} ({type(self).__name__}): static friction mu_s = "
+                                 f"{value_of(self, 'mu_s')} is below kinetic mu_k = {value_of(self, 'mu_k')}; "
+                                 f"a surface holds at least what it resists sliding with")
+
     def _inert(self) -> bool:
         return all(folded_zero(self, k) for k in self._coefficient_keys())
 

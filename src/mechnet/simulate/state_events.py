@@ -183,6 +183,14 @@ def _allowed(dirs, before, after):
             | ((before == 0) & (after != 0) & (dirs != 0) & (np.sign(after) == dirs)))
 
 
+def _leaving(g, gd, noise, dirs):
+    """g with the values within the round-off of the states (`noise`) of functions moving away from their
+    direction put on the side they move to: no crossing. A contact leaving its boundary at s = 1024 m
+    reads a gap of exactly 0 for its first 2e-13 m, and a cubic through those zeros with slope 1 dips
+    below them; found as crossings, they fired impacts on a separating contact."""
+    return np.where((np.abs(g) <= noise) & (dirs != 0) & (np.sign(gd) == -dirs), np.sign(gd) * 1e-300, g)
+
+
 def _hermite_root(t_a, g_a, d_a, t_b, g_b, d_b):
     """The root in (t_a, t_b) of the cubic through (g_a, ġ_a) and (g_b, ġ_b), or None (no rates, or
     no sign change of the cubic inside). Bisection on the cubic then Newton polishing: cheap numbers."""
@@ -359,11 +367,8 @@ class StateEvents:
         m = len(self.dae.zero_labels)
         G, D = R[:m].T, R[m: 2 * m].T                   # (n, m)
         dirs = np.array(self.dae.zero_directions)
-        # within the round-off of the states (not of the tolerances) while moving away from its direction
-        # is no crossing: a contact leaving its boundary at s = 1024 m reads a gap of exactly 0 for its
-        # first 2e-13 m, and a cubic through those zeros with slope 1 dips below them
         noise = self._round_off(pts[0], xs[0], zs[0])
-        G = np.where((np.abs(G) <= noise) & (dirs != 0) & (np.sign(D) == -dirs), np.sign(D) * 1e-300, G)
+        G = _leaving(G, D, noise, dirs)
         # the side at each point: its sign; at the start the armed side where it was set at that very time
         # (just after an event g may be a round-off on either side) or where g is exactly 0
         side = np.sign(G)
@@ -392,7 +397,10 @@ class StateEvents:
         where s_lo are the sides at lo; None when re-integration shows none (a grazing prediction)."""
         dirs = np.array(self.dae.zero_directions)
         ra, rb = self._rates(t_a, x_a, z_a), self._rates(t_b, x_b, z_b, left=True)
+        noise = self._round_off(t_a, x_a, z_a)
+        ra[0], rb[0] = _leaving(ra[0], ra[1], noise, dirs), _leaving(rb[0], rb[1], noise, dirs)
         s, ext = _cubic_extrema(ra[0], ra[1], rb[0], rb[1], t_b - t_a)
+        ext = np.where(np.abs(ext) <= noise[:, None], np.nan, ext)
         cand = _predicted(dirs, s_a, s, ext, rb[0])
         knots = sorted({t_a + float(v) for v in s[cand].ravel() if np.isfinite(v)})
         ts, states = [t_a], [(x_a, z_a)]
@@ -401,7 +409,8 @@ class StateEvents:
             states.append(self._advance_to(t_a, x_a, z_a, t))
         ts.append(t_b)
         states.append((x_b, z_b))
-        G = [ra[0]] + [self._rates(t, *st)[0] for t, st in zip(ts[1:-1], states[1:-1])] + [rb[0]]
+        G = [ra[0]] + [_leaving(*self._rates(t, *st)[:2], noise, dirs) for t, st in zip(ts[1:-1], states[1:-1])] \
+            + [rb[0]]
         side = s_a
         for k in range(1, len(ts)):
             crossed = np.flatnonzero(_allowed(dirs, side, G[k]))
@@ -506,16 +515,8 @@ class StateEvents:
                 best = found
         t_e, x_e, z_e = best
         dirs = np.array(self.dae.zero_directions)
-        # every function that crossed by t_e fires, in index order (two balls landing at once); one that
-        # only reached 0 within round-off while moving away from its direction has not crossed (a contact
-        # separating from its boundary: at s = 1024 m its gap reads exactly 0 for the first 1e-13 m)
-        g_e, gd_e, _ = self._rates(t_e, x_e, z_e)
-        leaving = (np.abs(g_e) <= np.abs(gd_e) * self._tol_t(t_e)) & (dirs != 0) & (np.sign(gd_e) == -dirs)
-        fired = [int(h) for h in np.flatnonzero(_allowed(dirs, s_lo, g_e) & ~leaving)]
-        if not fired and all(leaving[i] for i in crossed):
-            self._armed, self._armed_at = self._sides(t_e, (g_e, gd_e, _))[0], t_e
-            self.x, self.z = np.asarray(x_e, dtype=float).copy(), np.asarray(z_e, dtype=float).copy()
-            return t_e
+        # every function that crossed by t_e fires, in index order (two balls landing at once)
+        fired = [int(h) for h in np.flatnonzero(_allowed(dirs, s_lo, self._rates(t_e, x_e, z_e)[0]))]
         self._record_at(t_e, x_e, z_e)
         self._fire(t_e, x_e, z_e, fired or [int(crossed[0])])
         return t_e

@@ -10,9 +10,7 @@ import casadi as ca
 
 from ...core.declarations import Flag, Impulse, Input, Mode, Param, Var, nonnegative, positive
 from ...core.equation import Eq, When
-from ...core.errors import ParameterError
-from ..switched import (SwitchedFriction, contact_equations, relative_motion, release_event, resting_release,
-                        value_of)
+from ..switched import SwitchedFriction, contact_equations, relative_motion, release_event, resting_release
 from .interfaces import PartialCompliant
 
 
@@ -74,9 +72,7 @@ class Clutch(PartialFriction):
     f_normalized = Input(default=1.0, unit="1", doc="normalised normal force (0 open, 1 fully pressed)")
 
     def check(self):
-        if value_of(self, "mu_s") < value_of(self, "mu_k"):
-            raise ParameterError(f"{self.name} ({type(self).__name__}): static friction mu_s = "
-                                 f"{value_of(self, 'mu_s')} is below kinetic mu_k = {value_of(self, 'mu_k')}")
+        self.check_static_above_kinetic()
 
     def _characteristic(self):
         scale = self.cgeo * self.fn_max * ca.fmax(self.f_normalized, 0.0)

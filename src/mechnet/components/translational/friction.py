@@ -8,8 +8,7 @@ uses its regularised form.
 from __future__ import annotations
 
 from ...core.declarations import Flag, Impulse, Mode, Param, Var, nonnegative, positive
-from ...core.errors import ParameterError
-from ..switched import SwitchedFriction, value_of
+from ..switched import SwitchedFriction
 from .interfaces import PartialCompliant
 
 
@@ -68,10 +67,7 @@ class Friction(PartialFriction):
                        check=nonnegative)
 
     def check(self):
-        if value_of(self, "mu_s") < value_of(self, "mu_k"):
-            raise ParameterError(f"{self.name} ({type(self).__name__}): static friction mu_s = "
-                                 f"{value_of(self, 'mu_s')} is below kinetic mu_k = {value_of(self, 'mu_k')}; "
-                                 f"a surface holds at least what it resists sliding with")
+        self.check_static_above_kinetic()
 
     def _characteristic(self):
         return (self.mu_k * self.fn, self.mu_v * self.fn, (self.mu_s - self.mu_k) * self.fn, self.v_Stribeck)
