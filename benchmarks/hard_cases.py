@@ -11,7 +11,13 @@ tests cannot drift apart):
   3. planar chains with 1e-6 kg links against a hand-written chain (joint coordinates);
   4. belt-driven stick-slip, 50 and 1000 cycles: event count, event-time drift;
   5. free crank-rocker four-bar, 100 turns (200 rocker toggles): loop closure, energy against a
-     hand-written one-coordinate model.
+     hand-written one-coordinate model;
+  6. a 50-link chain at t = 1 s against a hand-written chain (test_hard_mechanisms.py, as 7 and 8);
+  7. a slider-crank at 3000 rpm for 1000 turns against the closed-form piston position;
+  8. a top at 1000 rad/s in steady precession, 10 s, against its closed form and a hand-written model;
+  9. IFToMM A02, N = 10 (and 40 in the full run): 10 passages through the flat change points — the
+     energy across each, the branch, the crank angle at 10 s against the one-coordinate reference, and
+     (full run) its fall with the tolerance down to rtol 1e-10.
 
 Settings: the defaults (rtol 1e-6, atol 1e-8) and rtol 1e-4 (atol 1e-6). Wall time: the whole case
 (compile, mechnet's run, the hand-written runs), one run each. Nothing is written to disk.
@@ -33,6 +39,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "tests"), str(ROOT / "tests" / "hard")]
 import test_hard_cases as H  # noqa: E402  (the scenes and criteria of the suite)
+import test_hard_mechanisms as HM  # noqa: E402
 
 SETTINGS = ((1e-6, 1e-8), (1e-4, 1e-6))
 ROWS: list[dict] = []
@@ -127,6 +134,53 @@ def four_bar():
         row("5 four-bar 100 turns", tag, "energy drift ≤ 3·hand J", out["drift"], 3 * out["hand_drift"], 0.0)
 
 
+def chain50():
+    for method in ("auto", "cvodes-bdf"):
+        for rtol, atol in SETTINGS:
+            out, wall = timed(HM.run_chain, method, rtol, atol)
+            tag = f"{method} {rtol:g}"
+            row("6 50-link chain", tag, "max|φ(1 s)−ref| ≤ 3·hand rad", out["error"], 3 * out["hand_error"], wall,
+                ok=out["error"] <= 3 * out["hand_error"] and out["reference_error"] <= 1e-6)
+            row("6 50-link chain", tag, "energy drift ≤ 3·hand J", out["drift"], 3 * out["hand_drift"], 0.0)
+
+
+def slider_crank():
+    for rtol, atol in SETTINGS:
+        (res, gap), wall = timed(HM.run_slider_crank, rtol, atol)
+        row("7 slider-crank 3000 rpm", f"auto {rtol:g}", "1000 turns: |x−closed form| ≤ 10(rtol·0.45+atol) m",
+            gap, 10 * (rtol * (HM.SC_R + HM.SC_L) + atol), wall,
+            ok=gap <= 10 * (rtol * (HM.SC_R + HM.SC_L) + atol) and res["joint_a.phi"][-1] >= 2 * np.pi * HM.SC_TURNS * (1 - 1e-12))
+
+
+def fast_top():
+    for method in ("auto", "cvodes-bdf"):
+        for rtol, atol in SETTINGS:
+            out, wall = timed(HM.run_top, method, rtol, atol)
+            tag = f"{method} {rtol:g}"
+            row("8 top 1000 rad/s", tag, "axis vs closed form ≤ 3·hand + 10(rtol+atol)", out["error"],
+                3 * out["hand_error"] + 10 * (rtol + atol), wall)
+            row("8 top 1000 rad/s", tag, "energy drift ≤ 3·hand + 10·rtol·E_spin J", out["drift"],
+                3 * out["hand_drift"] + 10 * rtol * 0.5 * HM.TOP_C * HM.TOP_SPIN ** 2, 0.0)
+            row("8 top 1000 rad/s", tag, "spin ω3 kept ≤ 10(rtol·ω3+atol) rad/s", out["spin"],
+                10 * (rtol * HM.TOP_SPIN + atol), 0.0)
+
+
+def a02(slow):
+    settings = SETTINGS + (((1e-8, 1e-10), (1e-10, 1e-12)) if slow else ())
+    for n in ((10, 40) if slow else (10,)):
+        for rtol, atol in (settings if n == 10 else SETTINGS[:1]):
+            out, wall = timed(HM.run_a02, n, rtol, atol)
+            tag, case = f"auto {rtol:g}", f"9 A02 N={n}"
+            row(case, tag, "passages = folds of the reference", out["passages"], out["folds"], wall,
+                ok=out["passages"] == out["folds"])
+            row(case, tag, "branch: cranks apart ≤ 1e-9 rad", out["branch"], 1e-9, 0.0)
+            row(case, tag, "energy across a passage ≤ 10·rtol·E J", out["jump"], 10 * rtol * out["energy"], 0.0)
+            row(case, tag, "crank error at 10 s ≤ 3000·rtol rad", out["error"], 3000 * rtol, 0.0)
+            row(case, tag, "crank error of the ODE by hand (info)", out["hand_error"], out["hand_error"], 0.0)
+            ROWS[-1]["ok"] = "info"
+            row(case, tag, "energy drift ≤ 10·hand J", out["drift"], 10 * out["hand_drift"], 0.0)
+
+
 def header():
     try:
         git = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
@@ -171,7 +225,8 @@ def main():
     t0 = time.perf_counter()
     for name, fn in (("stiff chain", stiff_chain), ("pendulum", lambda: pendulum(not args.quick)),
                      ("nearly massless links", light_chain), ("stick-slip", lambda: stick_slip(not args.quick)),
-                     ("four-bar", four_bar)):
+                     ("four-bar", four_bar), ("50-link chain", chain50), ("slider-crank", slider_crank),
+                     ("fast top", fast_top), ("A02", lambda: a02(not args.quick))):
         t1 = time.perf_counter()
         fn()
         print(f"  {name}: {time.perf_counter() - t1:.1f} s", flush=True)

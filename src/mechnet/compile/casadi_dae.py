@@ -68,6 +68,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     position = {s.element_hash(): i for i, s in enumerate(symbols)}
     name_index = {v.name: i for i, v in enumerate(variables)}
     depends: dict[int, set] = {}           # variable -> the unknowns its block reads
+    linear_tears: list[str] = []           # algebraic variables closing a large linear block (tearing.py)
     for block in structure.blocks:
         block_vars = [structure.unknowns[structure.matching[e]] for e in block]
         residuals = [flat.equations[e].residual for e in block]
@@ -94,6 +95,8 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
         for i in block_vars:
             depends[i] = outside
         z_index.extend(sol.tears)
+        if sol.linear:
+            linear_tears.extend(variables[i].name for i in sol.tears)
         alg.extend(res)
         alg_labels.extend(flat.equations[block[k]].describe() for k in sol.rows)
     # torn variables are base symbols: substitute them nowhere, but observed reads them
@@ -172,7 +175,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     starts = {v.name: v.start for v in original.variables if v.start is not None}
     guesses = {v.name: (v.guess if v.guess is not None else v.default_start) for v in original.variables}
     nominal = {v.name: v.nominal for v in original.variables}
-    info = {"alg_labels": tuple(alg_labels), "solved": len(value), "folded_parameters": flat.folded_parameters,
+    info = {"alg_labels": tuple(alg_labels), "linear_tears": tuple(linear_tears), "solved": len(value), "folded_parameters": flat.folded_parameters,
             "parameter_checks": {q.name: (q.declaration, q.owner) for q in flat.parameters}, "torn": len(z_index),
             "observed_only": _count_observed_only(value, depends, flat, z_index, original),
             "nominal": nominal, "quaternions": quaternions,

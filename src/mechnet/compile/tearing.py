@@ -28,6 +28,7 @@ class BlockSolution:
     tears: list             # variable indices kept as algebraic unknowns
     residuals: list         # expressions that must vanish
     rows: list = field(default_factory=list)  # for each residual, its position in the block (to name the equation)
+    linear: bool = False    # the tears close a linear block too large to solve symbolically (SYMBOLIC_TEARS_MAX)
 
 
 def solvable_coefficient(coef: ca.SX, known_symbols: set) -> bool:
@@ -52,6 +53,9 @@ def solve_linear_for(residual: ca.SX, var: ca.SX, parameter_hashes: set):
 
 
 ROUND_OFF = 1e-12
+SYMBOLIC_TEARS_MAX = 16     # a linear block closed by more tearing variables keeps them as algebraic unknowns:
+                            # a dense symbolic solve grows as n³ (IFToMM A02, ten parallelograms: 30 tears,
+                            # 63 891 instructions of ODE; forty would not compile in minutes)
 
 
 def _largest_constant_coefficient(residual: ca.SX) -> float:
@@ -164,7 +168,7 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
     if len(tears) != len(out_res):
         # tearing did not come out square (should not happen for a matched block): keep it whole
         return BlockSolution([], list(variables), list(residuals), list(range(n)))
-    if linear and tears:
+    if linear and tears and len(tears) <= SYMBOLIC_TEARS_MAX:
         # block elimination: composed, the torn residuals are linear in the tearing variables;
         # solve that small system symbolically and substitute back, all in single passes
         defs, res = compose([symbols[v] for v, _ in solved], [e for _, e in solved], out_res)
@@ -176,7 +180,7 @@ def solve_block(residuals: list, variables: list, symbols: list, parameter_hashe
         back = ca.substitute(ca.vertcat(*defs), t_vec, t_sol) if defs else []
         return BlockSolution([(v, t_sol[k]) for k, v in enumerate(tears)]
                              + [(v, back[k]) for k, (v, _) in enumerate(solved)], [], [], [])
-    return BlockSolution(solved, tears, out_res, rows)
+    return BlockSolution(solved, tears, out_res, rows, linear=bool(linear and tears))
 
 
 def refined_solve(a, b):

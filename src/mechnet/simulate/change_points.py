@@ -22,13 +22,15 @@ from ..caches import built
 from ..core.errors import MechnetError
 from ..numeric import mapped_in
 from .events import Event
-from .initialize import solve_algebraic
+from .initialize import _newton, _residual_pair, solve_algebraic
 from .reselection import dae_arguments
 
 RANK_LOSS = 1e-4          # conditioning of the algebraic block below this: the constraints are losing rank
                           # (a regular four-bar position measures ~0.03, 0.04 rad before a fold ~5e-6)
 MAX_GROWTH = 64           # a jump spans at most this many times the last step before it,
 MAX_OUTPUT_INTERVALS = 2  # or two output intervals when that is longer
+GAUSS_C = 0.5 + 0.5 * np.array([-1, -1, 1, 1]) * np.sqrt(3 / 7 + np.array([1, -1, -1, 1]) * 2 / 7 * np.sqrt(6 / 5))
+GAUSS_B = (18 + np.array([-1, 1, 1, -1]) * np.sqrt(30.0)) / 72    # 4-stage Gauss–Legendre: nodes, weights
 HISTORY = 4               # recorded points used to estimate where the rank is lost
 
 
@@ -37,27 +39,54 @@ class ChangePoints:
 
     def _conditioning(self, ts, xs, zs, unit_rows=True):
         """σ_min/σ_max of the algebraic block ∂alg/∂z at each point, columns per unit of each variable's
-        largest size over the points (its nominal at least; angles: their nominal) and rows scaled to unit
-        norm. The selection quality cannot see a change point: it scales each constraint row by its norm, and at a fold a whole row vanishes. The row-scaled
-        ratio can miss the same thing (a parallelogram's closure along its flat line when the
-        rocker-coupler angle is the state): `unit_rows=False` keeps the rows as they are, for the
-        check after a failure."""
-        n, nz = len(ts), self.dae.z.numel()
+        largest size over the points (its nominal at least; angles: their nominal) and rows scaled to
+        unit norm. The selection quality cannot see a change point: it scales each constraint row by its
+        norm, and at a fold a whole row vanishes. The row-scaled ratio can miss the same thing (a
+        parallelogram's closure along its flat line when the rocker-coupler angle is the state):
+        `unit_rows=False` keeps the rows as they are, for the check after a failure.
+
+        When the block also holds a large acceleration block (`_kinematic_block`), only its kinematic
+        part is measured, with its rows as they are: they are all closures in one unit, and a fold then
+        shows as a conditioning proportional to the distance from it."""
+        n = len(ts)
+        rows, cols, kinematic = self._kinematic_block()
         f = self._alg_jacobian_function(n)
         U = self._inputs_at(ts)
         J = f(np.reshape(ts, (1, -1)), np.asarray(xs).T, np.asarray(zs).T, U,
               np.tile(self.p.reshape(-1, 1), n), np.tile(self.d.reshape(-1, 1), n))[0]
+        nz = self.dae.z.numel()
+        J = J.reshape(nz, n, nz).transpose(1, 0, 2)[:, rows][:, :, cols]
         # per unit of each variable's size over these points (its nominal at least): a pin force of 6000 N
         # at 3000 rpm measured per newton made a regular slider-crank look singular four times a turn, and
         # its size at each point alone did where a force component crosses zero. Angles keep their
         # nominal: an angle's value says nothing of its scale (a parallelogram wound 10⁴ turns missed its fold)
-        size = np.maximum(np.max(np.abs(np.asarray(zs, dtype=float).reshape(n, nz)), axis=0), self.zn)
-        size = np.where(_angles(self.dae), self.zn, size)
-        J = J.reshape(nz, n, nz).transpose(1, 0, 2) * size
-        if unit_rows:
+        zn = self.zn[cols]
+        size = np.maximum(np.max(np.abs(np.asarray(zs, dtype=float).reshape(n, nz)[:, cols]), axis=0), zn)
+        J = J * np.where(_angles(self.dae)[cols], zn, size)
+        if unit_rows and not kinematic:
             J = J / np.maximum(np.linalg.norm(J, axis=2, keepdims=True), 1e-300)
         s = np.linalg.svd(J, compute_uv=False)
         return s[:, -1] / np.maximum(s[:, 0], 1e-300)
+
+    def _kinematic_block(self):
+        """(rows, columns, proper) of ∂alg/∂z without a large linear block the compiler kept algebraic
+        (`tearing.SYMBOLIC_TEARS_MAX`: accelerations and forces): the other variables and the equations
+        in them alone — the loops' closures; `proper` when such a block was left out. Measured with
+        its forces in newtons next to accelerations, ten parallelograms looked folded 0.2 rad before
+        their fold. The whole block otherwise (cached per selection)."""
+        dae = self.dae
+
+        def build():
+            kept = set(dae.info.get("linear_tears", ()))
+            cols = np.array([name not in kept for name in dae.z_names], dtype=bool)
+            args = dae_arguments(dae)
+            pattern = np.array(ca.DM(ca.jacobian(dae.alg(*args), args[2]).sparsity(), 1).full(), dtype=bool)
+            rows = ~np.any(pattern[:, ~cols], axis=1)
+            proper = bool(kept and cols.any() and rows.sum() >= cols.sum())
+            if not proper:
+                rows, cols = np.ones(pattern.shape[0], dtype=bool), np.ones(pattern.shape[1], dtype=bool)
+            return (np.nonzero(rows)[0], np.nonzero(cols)[0], proper), {}
+        return built(dae.info, "_kinematic_block", build)[0]
 
     def _alg_jacobian_function(self, n):
         """∂alg/∂z of the running compiled selection, mapped over n points (cached per selection, across
@@ -102,6 +131,10 @@ class ChangePoints:
         conds = self._conditioning(ts, xs, zs)
         if conds[-1] < RANK_LOSS and conds[-1] < conds[-2]:
             return self._step_over(grid, limit, ts, xs, zs, conds)
+        if self._kinematic_block()[2] and conds[-1] < 100 * RANK_LOSS and _fold_time(ts, conds) is not None:
+            # closures measured alone fall linearly to the point: at tight tolerances IDAS fails already
+            # 0.06 rad before a fold of ten parallelograms (rtol 1e-10), where they measure 1.5e-4
+            return self._step_over(grid, limit, ts, xs, zs, conds)
         plain = self._conditioning(ts, xs, zs, unit_rows=False)
         if len(ts) >= 3 and plain[-1] < 0.1 * plain[0] and np.all(np.diff(plain) < 0):
             return self._step_over(grid, limit, ts, xs, zs, plain, unit_rows=False)
@@ -138,11 +171,12 @@ class ChangePoints:
         the change point ahead; the new time or None.
 
         The first try goes as far past the estimated point as the start was before it; then tries
-        double from the last step before the start, up to MAX_GROWTH steps or two output intervals.
-        States follow the cubic through the last two points' values and rates (error O(Δt⁴) over the
-        jump); algebraic variables are re-solved from the quadratic through the last three points. A
-        landing is kept when Newton stayed on that branch (the other branch lies O(Δt) away, the
-        prediction O(Δt²)) and the conditioning rises there: the point lies behind."""
+        double from the last step before the start, up to MAX_GROWTH steps or two output intervals,
+        leaving out those that put a stage of the step next to the point. The states take one
+        Gauss–Legendre step (`_gauss_step`), its stages' algebraic variables started from the quadratic
+        through the last three points. A landing is kept when Newton stayed on that branch at every
+        stage and at the landing (the other branch lies O(Δt) away, the prediction O(Δt²)) and the
+        conditioning rises there: the point lies behind."""
         t1, x1, z1 = ts[-1], xs[-1], zs[-1]
         h = t1 - ts[-2]
         if h <= 0:
@@ -150,21 +184,48 @@ class ChangePoints:
         t_star = _fold_time(ts, conds)
         spacing = float(np.max(np.diff(grid))) if grid.size > 1 else h
         longest = min(max(MAX_GROWTH * h, MAX_OUTPUT_INTERVALS * spacing), limit - t1)
-        tries = []
-        if t_star is not None and 0 < 2 * (t_star - t1) <= longest:
-            tries.append(2 * (t_star - t1))
+        # with the closures measured alone the estimate is sharp (the conditioning falls linearly): no
+        # stage of the step next to the point (ten parallelograms lost 3e-3 J on a stage 0.4 ms from it),
+        # and first a landing four times as far past it as the start is before it, where the integrator
+        # restarts more easily (a restart at the mirror point failed at rtol 1e-10), between the first two
+        # stages (0.13 of the step from each)
+        sharp = t_star is not None and self._kinematic_block()[2]
+        ahead = [5.0, 2.0] if sharp else [2.0]
+        tries = [k * (t_star - t1) for k in ahead if t_star is not None and 0 < k * (t_star - t1) <= longest]
         dt = h
         while dt <= longest:
-            tries.append(dt)
+            if not sharp or np.min(np.abs(t1 + GAUSS_C * dt - t_star)) > 0.1 * dt:
+                tries.append(dt)
             dt *= 2
         watched = self._branch_variables()
         rates = [np.asarray(self.dae.ode(t, x, z, self._u_at(t), self.p, self.d)).ravel()
                  for t, x, z in zip(ts[-2:], xs[-2:], zs[-2:])]
+        path = CubicHermiteSpline(ts[-2:], xs[-2:], np.array(rates), axis=0)
+        predicted = BarycentricInterpolator(ts[-3:], zs[-3:], axis=0)
 
         def landing(t_b):
-            x_b = CubicHermiteSpline(ts[-2:], xs[-2:], np.array(rates), axis=0)(t_b)
-            z_pred = BarycentricInterpolator(ts[-3:], zs[-3:], axis=0)(t_b)
-            return x_b, z_pred, solve_algebraic(self.dae, t_b, x_b, z_pred, self._u_at(t_b), self.p, self.d)
+            """(x_b, z prediction, z_b) one Gauss–Legendre step past the point, or None when its stages
+            left the branch."""
+            dt = t_b - t1
+            stage_t = t1 + GAUSS_C * dt
+            x_b, stage_z, K = self._gauss_step(t1, x1, dt, path.derivative()(stage_t), predicted(stage_t))
+            line = z1 + np.outer(stage_t - t1, (z1 - zs[-2]) / h)
+            gap = np.abs(stage_z - predicted(stage_t))[:, watched]
+            if np.any(gap > 0.5 * np.abs(line - z1)[:, watched] + 1e-8 * (1 + np.abs(stage_z[:, watched]))):
+                return None                                        # a stage went to the other branch
+            stages = BarycentricInterpolator(GAUSS_C, stage_z, axis=0)
+            z_pred = stages(1.0)
+
+            def along(t):
+                """(x, z guess) at t inside the step: the collocation polynomial, the stages' z."""
+                tau = (t - t1) / dt
+                return x1 + dt * _integrated(tau) @ K, stages(tau)
+            self._along = along
+            try:
+                return x_b, z_pred, solve_algebraic(self.dae, t_b, x_b, z_pred, self._u_at(t_b), self.p, self.d)
+            except MechnetError:              # stages next to the point carry its noise: the history's quadratic
+                z_pred = predicted(t_b)
+                return x_b, z_pred, solve_algebraic(self.dae, t_b, x_b, z_pred, self._u_at(t_b), self.p, self.d)
 
         for dt in tries:
             t_b = t1 + dt
@@ -172,25 +233,50 @@ class ChangePoints:
             if following - t_b < 0.01 * dt and following <= limit:
                 t_b, dt = following, following - t1      # no sliver of an interval left before an output
             try:
-                x_b, z_pred, z_b = landing(t_b)
+                landed = landing(t_b)
+                if landed is None:
+                    continue
+                x_b, z_pred, z_b = landed
                 z_line = z1 + (z1 - zs[-2]) / h * dt
                 gap = np.abs(z_b - z_pred)[watched]
                 if np.any(gap > 0.5 * np.abs(z_line - z1)[watched] + 1e-8 * (1 + np.abs(z_pred[watched]))):
                     continue                                       # Newton went to the other branch
-                t_c = t_b + 0.05 * dt
-                x_c, _, z_c = landing(t_c)
+                t_c = t_b + 0.05 * dt                              # a little further on, along the rates
+                x_c = x_b + 0.05 * dt * np.asarray(self.dae.ode(t_b, x_b, z_b, self._u_at(t_b), self.p,
+                                                                self.d)).ravel()
+                z_c = solve_algebraic(self.dae, t_c, x_c, z_b, self._u_at(t_c), self.p, self.d)
                 c_b, c_c = self._conditioning([t_b, t_c], [x_b, x_c], [z_b, z_c], unit_rows)
             except MechnetError:
                 continue
-            if c_c <= c_b or c_b < 0.1 * (max(conds[-1], RANK_LOSS) if unit_rows else conds[-1]):
+            kinematic = self._kinematic_block()[2]
+            if c_c <= c_b or c_b < (0.5 * conds[-1] if kinematic else
+                                    0.1 * max(conds[-1], RANK_LOSS) if unit_rows else 0.1 * conds[-1]):
                 continue                    # not past the point yet, or too near it for the integrator
-            self._bridge(grid, t1, x1, z1, t_b, x_b, z_b)
+            self._bridge(grid, t1, x1, z1, t_b, x_b, z_b, self._along)
             where = f"estimated at t = {t_star:.9g} s; " if t_star is not None else ""
             self.events.append(Event(float(t_b), "change point",
                                      f"constraint Jacobian lost rank (algebraic block conditioning "
                                      f"{conds[-1]:.2g}, {where}passed from t = {t1:.9g} s with the velocity)"))
             return t_b
         return None
+
+    def _gauss_step(self, t1, x1, dt, rates_guess, z_guess):
+        """One step of the 4-stage Gauss–Legendre method (order 8) from (t1, x1) over dt: (x at t1 + dt,
+        the stages' algebraic variables, the stages' rates). Its stages lie at 0.07, 0.33, 0.67 and 0.93 of the step, none
+        at a change point in the middle, where the algebraic block is singular; the states' error over
+        the step is O(dt⁹), where extrapolating along the rates left 0.17 J of 159 at each fold of ten
+        parallelograms. Raises MechnetError when the stage equations do not converge."""
+        dae, n_s = self.dae, len(GAUSS_C)
+        nx, nz = dae.x.numel(), dae.z.numel()
+        residual, jacobian = built(dae.info, "_gauss_stages", lambda: _gauss_stage_equations(dae))
+        stage_t = t1 + GAUSS_C * dt
+        U = np.concatenate([np.ravel(self._u_at(t)) for t in stage_t]) if dae.u.numel() else np.zeros(0)
+        w0 = np.concatenate([np.asarray(rates_guess, dtype=float).ravel(), np.asarray(z_guess, dtype=float).ravel()])
+        w, r = _newton(residual, jacobian, w0, (t1, dt, x1, U, self.p, self.d))
+        if not np.all(np.isfinite(r)) or np.max(np.abs(r)) > 1e-8 * (1.0 + np.max(np.abs(w))):
+            raise MechnetError(f"the Gauss step over the change point at t = {t1:g} s did not converge")
+        K = w[: n_s * nx].reshape(n_s, nx)
+        return x1 + dt * GAUSS_B @ K, w[n_s * nx:].reshape(n_s, nz), K
 
     def _history(self, pts, xs, zs):
         """The monitor points (pts, xs, zs) preceded by recorded points of the running selection, up to
@@ -213,11 +299,18 @@ class ChangePoints:
         mask = np.array([name in moving for name in self.dae.z_names], dtype=bool)
         return mask if mask.any() else np.ones(len(self.dae.z_names), dtype=bool)
 
-    def _bridge(self, grid, t1, x1, z1, t_b, x_b, z_b):
-        """Output points inside the step over the change point: linear between its two ends."""
+    def _bridge(self, grid, t1, x1, z1, t_b, x_b, z_b, along):
+        """Output points inside the step over the change point: the states on the step's collocation
+        polynomial (`along`), the algebraic variables solved there (linear between the ends where
+        that fails, next to the point itself)."""
         for t in grid[(grid > t1) & (grid < t_b)]:
-            s = (t - t1) / (t_b - t1)
-            self.x, self.z = x1 + s * (x_b - x1), z1 + s * (z_b - z1)
+            x, z_guess = along(t)
+            try:
+                z = solve_algebraic(self.dae, t, x, z_guess, self._u_at(t), self.p, self.d)
+            except MechnetError:
+                s = (t - t1) / (t_b - t1)
+                z = z1 + s * (z_b - z1)
+            self.x, self.z = x, z
             self._record(t)
         self.x, self.z = x_b.copy(), z_b.copy()
         if np.any(grid == t_b):
@@ -241,3 +334,43 @@ def _fold_time(ts, conds):
     if w[1] < w[0]:
         return float(mid[1] + w[1] * (mid[1] - mid[0]) / (w[0] - w[1]))
     return float(mid[1] + w[1])            # not yet in the power law: k = 1, a short step
+
+
+def _integrated_basis(c):
+    """P_j(τ) = ∫₀^τ ℓ_j for the Lagrange basis ℓ_j on the nodes c, as polynomial coefficients (rows)."""
+    from numpy.polynomial import polynomial as P
+    rows = []
+    for j in range(len(c)):
+        basis = np.array([1.0])
+        for m in range(len(c)):
+            if m != j:
+                basis = P.polymul(basis, np.array([-c[m], 1.0]) / (c[j] - c[m]))
+        rows.append(P.polyint(basis))
+    return np.array(rows)
+
+
+def _integrated(tau):
+    """[P_j(τ)] for the Gauss nodes: the collocation polynomial x(t1 + τ·dt) = x1 + dt Σ_j P_j(τ) K_j."""
+    return np.array([np.polynomial.polynomial.polyval(tau, row) for row in GAUSS_P])
+
+
+GAUSS_P = _integrated_basis(GAUSS_C)
+GAUSS_A = np.array([_integrated(c) for c in GAUSS_C])   # a_ij = P_j(c_i)
+
+
+def _gauss_stage_equations(dae):
+    """Residual and Jacobian of the Gauss–Legendre stage equations in w = (K₁..K₄, Z₁..Z₄), arguments
+    (t1, dt, x1, U, p, d): K_i = ode(t_i, X_i, Z_i), alg(t_i, X_i, Z_i) = 0, X_i = x1 + dt Σ a_ij K_j."""
+    t, x, z, u, p, d = dae_arguments(dae)
+    n_s, nx, nz, nu = len(GAUSS_C), x.numel(), z.numel(), u.numel()
+    K, Z = ca.SX.sym("K", nx, n_s), ca.SX.sym("Z", nz, n_s)
+    t1, dt, x1, U = ca.SX.sym("t1"), ca.SX.sym("dt"), ca.SX.sym("x1", nx), ca.SX.sym("U", nu * n_s)
+    f = ca.Function("f", [t, x, z, u, p, d], [dae.ode(t, x, z, u, p, d), dae.alg(t, x, z, u, p, d)])
+    rows_k, rows_z = [], []
+    for i in range(n_s):
+        X = x1 + dt * ca.mtimes(K, ca.DM(GAUSS_A[i]))
+        rate, alg = f(t1 + GAUSS_C[i] * dt, X, Z[:, i], U[i * nu:(i + 1) * nu], p, d)
+        rows_k.append(K[:, i] - rate)
+        rows_z.append(alg)
+    w = ca.vertcat(ca.vec(K), ca.vec(Z))
+    return _residual_pair("gauss_stages", w, [t1, dt, x1, U, p, d], ca.vertcat(*rows_k, *rows_z))
