@@ -1,6 +1,9 @@
 """`simulate`: check the arguments, initialise, run the simulation loop (`run.py`), assemble the `Result`."""
 from __future__ import annotations
 
+import itertools
+import operator
+
 import time as _time
 import warnings
 
@@ -146,11 +149,11 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
                                              (run.X[-1], run.Z[-1], run._u_at(T[-1]), p, run.M[-1]))).full().ravel()
         stats["invariants_at_end"] = float(np.max(np.abs(c))) if c.size else 0.0
     known = {}
-    if T.size and all(sel is final for sel in run.D):
+    if T.size and all(map(operator.is_, run.D, itertools.repeat(final))):   # (identity, at C speed)
         # one selection throughout: its states and algebraics are the run's own; every other name is
         # computed when first asked for (most callers read a few names of hundreds)
-        X = np.array(run.X).reshape(T.size, -1)
-        Z = np.array(run.Z).reshape(T.size, -1)
+        X = np.concatenate(run.X).reshape(T.size, -1)      # (rows of one length: faster than np.array)
+        Z = np.concatenate(run.Z).reshape(T.size, -1)
         known = {**{n: X[:, k] for k, n in enumerate(final.x_names)},
                  **{n: Z[:, k] for k, n in enumerate(final.z_names)}}
         observed = observe

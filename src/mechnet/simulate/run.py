@@ -229,10 +229,10 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         t0, h = points[0], points[-1] - points[0]
         if keep is None:
             def get():
-                return self.integrators.get_real(tuple(float(v) for v in points))
+                return self.integrators.get_real(tuple(np.asarray(points, dtype=float).tolist()))
         else:
             def get():
-                return self.integrators.get(tuple(float(v) for v in np.round((points[1:] - t0) / h, 12)))
+                return self.integrators.get(tuple(np.round((points[1:] - t0) / h, 12).tolist()))
         self._renormalise()
         ox, oz = self._turns(self.x, self.z)
         xs = (self.x - ox) / self.xn
