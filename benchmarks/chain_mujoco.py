@@ -157,9 +157,10 @@ def plot(curves, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    keys = sorted(curves)
-    fig, axes = plt.subplots(1, len(keys), figsize=(4.2 * len(keys), 3.8), squeeze=False)
-    for ax, key in zip(axes[0], keys):
+    ns, ts = sorted({k[0] for k in curves}), sorted({k[1] for k in curves})
+    fig, axes = plt.subplots(len(ts), len(ns), figsize=(4.4 * len(ns), 3.6 * len(ts)), squeeze=False)
+    for key in sorted(curves):
+        ax = axes[ts.index(key[1])][ns.index(key[0])]
         study, sweeps = curves[key]
         for method in ("auto", "cvodes-bdf"):
             pts = sorted((t.time, t.error) for t in study.trials if t.method == method and t.status == "ok"

@@ -110,6 +110,18 @@ def test_a_chaotic_scene_is_said_to_be_so():
     assert any("chaotic" in w for w in result.warnings)
 
 
+def test_an_unreliable_run_is_recommended_only_where_the_reference_cannot_spoil_it():
+    # A reference whose own error is 1e-5 (a chaotic scene late in its run): a run measured at 2e-6 lies
+    # within 10× of it (unreliable); its true error is at most 2e-6 + 1e-5 = 1.2e-5. It is the cheapest
+    # run for a 1e-3 target; for 1.1e-5 nothing qualifies (that bound exceeds it, the other run errs 5e-4).
+    fast = accuracy.Trial("auto", 1e-8, error=2e-6, time=0.010, reliable=False)
+    slow = accuracy.Trial("auto", 1e-10, error=5e-4, time=0.050)
+    study = accuracy.AccuracyStudy("chain", 10.0, ("rev0.phi",), [fast, slow], "two tighter runs", 1e-5)
+    assert study.recommend(1e-3) is fast
+    assert study.recommend(1.1e-5) is None
+    assert study.recommend(1e-3, simulate_only=True) is fast
+
+
 def test_the_command_line_writes_its_plot_against_the_scenes_reference(tmp_path, capsys):
     status = main(["accuracy", str(EXAMPLES / "double_pendulum.py"), "--t-end", "0.5", "--methods", "cvodes-adams",
                    "idas", "rk", "--tolerances", "1e-4", "1e-6", "1e-8", "-o", str(tmp_path)])

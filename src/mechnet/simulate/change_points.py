@@ -1,16 +1,17 @@
-"""Change points: where the whole constraint Jacobian loses rank, continue with the velocity.
+"""Change points: where the whole constraint Jacobian loses rank, step over with the motion.
 
 A parallelogram four-bar folds flat twice per revolution: there the loop's
 constraint Jacobian loses rank for every choice of states, two branches of
 solutions cross (parallelogram and anti-parallelogram), and the integrator's
 Newton iteration fails. Re-selecting states cannot help (DESIGN.md). The
 branch rule steps over the point instead: from the last accepted points the
-conditioning's fall locates the point, the states are extrapolated past it
-along their rates, the algebraic variables are re-solved there from a
+conditioning's fall locates the point, one Gauss–Legendre step (whose stages
+all lie away from the point, where the equations are regular) carries the
+states past it, the algebraic variables are re-solved there from a
 prediction, and the landing is kept only if Newton stayed near the
-prediction. Near the crossing the other branch lies O(Δt) away and the
-continuing one O(Δt²), so the motion keeps its branch, as a physical
-mechanism with inertia does.
+prediction at every stage and at the landing. Near the crossing the other
+branch lies O(Δt) away and the continuing one O(Δt²), so the motion keeps
+its branch, as a physical mechanism with inertia does.
 """
 from __future__ import annotations
 
@@ -256,7 +257,7 @@ class ChangePoints:
             where = f"estimated at t = {t_star:.9g} s; " if t_star is not None else ""
             self.events.append(Event(float(t_b), "change point",
                                      f"constraint Jacobian lost rank (algebraic block conditioning "
-                                     f"{conds[-1]:.2g}, {where}passed from t = {t1:.9g} s with the velocity)"))
+                                     f"{conds[-1]:.2g}, {where}passed from t = {t1:.9g} s in one Gauss–Legendre step)"))
             return t_b
         return None
 

@@ -128,7 +128,7 @@ class MonitoredPieces:
                 crossing = self._first_crossing(pts, xs, zs, fold)
             if crossing is None and self.failure is None and before and pts[fold] > t_cur \
                     and (switch_at is None or fold <= switch_at):
-                # a change point ahead: keep the piece up to it, then step over it with the velocity
+                # a change point ahead: keep the piece up to it, then step over it (change_points.py)
                 for m in range(1, fold + 1):
                     if is_output[m]:
                         self.x, self.z = xs[m], zs[m]
