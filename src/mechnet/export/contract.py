@@ -211,6 +211,7 @@ def metadata(cm, dae, starts: list, verdict: dict) -> dict:
         "invariants": list(dae.invariant_names),
         "quaternions": [list(index) for index in dae.info.get("quaternions", ())],   # x indices, renormalised
         "alg_labels": list(dae.info.get("alg_labels", ())),
+        "linear_tears": list(dae.info.get("linear_tears", ())),       # large linear blocks left to the solver
         "folded_parameters": list(dae.info.get("folded_parameters", ())),
         "dependencies": dependencies(dae),
         "selection": verdict,

@@ -82,7 +82,8 @@ def _dae(record: dict, fns: dict) -> SemiExplicitDAE:
         t, x, z, u, p, d = ca.SX.sym("t"), *(symbols(k) for k in "xzupd")
     names = {k: tuple(v["name"] for v in record[k]) for k in "xzupd"}
     checks = {v["name"]: (_declaration(v), v.get("owner", v["name"])) for v in record["p"]}
-    info = {"alg_labels": tuple(record["alg_labels"]), "folded_parameters": tuple(record["folded_parameters"]),
+    info = {"alg_labels": tuple(record["alg_labels"]), "linear_tears": tuple(record.get("linear_tears", ())),
+            "folded_parameters": tuple(record["folded_parameters"]),
             "nominal": {v["name"]: v["nominal"] for v in record["observed"]}, "parameter_checks": checks,
             "solved": 0, "torn": len(record["z"]), "observed_only": 0,
             "quaternions": tuple(tuple(index) for index in record.get("quaternions", ())),

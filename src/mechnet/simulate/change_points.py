@@ -27,6 +27,8 @@ from .initialize import _newton, _residual_pair, solve_algebraic
 from .reselection import dae_arguments
 
 RANK_LOSS = 1e-4          # conditioning of the algebraic block below this: the constraints are losing rank
+CLOSURE_RANK_LOSS = 0.05  # the same for the closures measured alone (`_kinematic_block`), relative to their
+                          # best in the run: about the distance from the fold in radians (A02, N = 10 and 40)
                           # (a regular four-bar position measures ~0.03, 0.04 rad before a fold ~5e-6)
 MAX_GROWTH = 64           # a jump spans at most this many times the last step before it,
 MAX_OUTPUT_INTERVALS = 2  # or two output intervals when that is longer
@@ -67,7 +69,18 @@ class ChangePoints:
         if unit_rows and not kinematic:
             J = J / np.maximum(np.linalg.norm(J, axis=2, keepdims=True), 1e-300)
         s = np.linalg.svd(J, compute_uv=False)
-        return s[:, -1] / np.maximum(s[:, 0], 1e-300)
+        ratio = s[:, -1] / np.maximum(s[:, 0], 1e-300)
+        if not kinematic:
+            return ratio
+        # unscaled, the ratio shrinks with the number of loops (2e-3 for ten parallelograms upright, 8e-5
+        # for forty): relative to the best this selection has shown in the run, it reads the same for both
+        best = self.__dict__.setdefault("_closure_best", {})
+        best[id(self.dae)] = max(best.get(id(self.dae), 0.0), float(np.max(ratio)))
+        return ratio / max(best[id(self.dae)], 1e-300)
+
+    def _rank_loss(self):
+        """The conditioning below which the algebraic block counts as losing rank (see _conditioning)."""
+        return CLOSURE_RANK_LOSS if self._kinematic_block()[2] else RANK_LOSS
 
     def _kinematic_block(self):
         """(rows, columns, proper) of ∂alg/∂z without a large linear block the compiler kept algebraic
@@ -128,13 +141,14 @@ class ChangePoints:
     def _step_over_losing_rank(self, grid, limit, ts, xs, zs):
         """After a failure: step over when the algebraic block is losing rank at the end of the history
         (ts, xs, zs) and still falling — row-scaled below RANK_LOSS, or with rows as they are, down
-        tenfold over the history (a vanishing row); the new time or None."""
-        conds = self._conditioning(ts, xs, zs)
-        if conds[-1] < RANK_LOSS and conds[-1] < conds[-2]:
+        tenfold over the history (a vanishing row), or (closures measured alone) below ten times
+        CLOSURE_RANK_LOSS with the point estimated ahead; the new time or None."""
+        conds, loss = self._conditioning(ts, xs, zs), self._rank_loss()
+        if conds[-1] < loss and conds[-1] < conds[-2]:
             return self._step_over(grid, limit, ts, xs, zs, conds)
-        if self._kinematic_block()[2] and conds[-1] < 100 * RANK_LOSS and _fold_time(ts, conds) is not None:
+        if self._kinematic_block()[2] and conds[-1] < 10 * loss and _fold_time(ts, conds) is not None:
             # closures measured alone fall linearly to the point: at tight tolerances IDAS fails already
-            # 0.06 rad before a fold of ten parallelograms (rtol 1e-10), where they measure 1.5e-4
+            # 0.06 rad before a fold of ten parallelograms (rtol 1e-10)
             return self._step_over(grid, limit, ts, xs, zs, conds)
         plain = self._conditioning(ts, xs, zs, unit_rows=False)
         if len(ts) >= 3 and plain[-1] < 0.1 * plain[0] and np.all(np.diff(plain) < 0):
@@ -143,15 +157,15 @@ class ChangePoints:
 
     def _first_fold(self, pts, xs, zs):
         """(index, conditioning at every point) of the first monitor point after the start where the
-        algebraic block's conditioning falls below RANK_LOSS: the simulator steps over the change point
+        algebraic block's conditioning falls below `_rank_loss`: the simulator steps over the change point
         before the integrator fails there."""
         self._last_conditioning = None
         if self.cm.selection_factory is None or not self.dae.z.numel() or pts.size < 2:
             return None
-        cond = self._conditioning(pts, xs, zs)
-        if np.any(cond > RANK_LOSS):
-            self._fold_floor = RANK_LOSS                      # a failed step over is forgotten once regular
-        threshold = min(RANK_LOSS, self.__dict__.get("_fold_floor") or RANK_LOSS)
+        cond, loss = self._conditioning(pts, xs, zs), self._rank_loss()
+        if np.any(cond > loss):
+            self._fold_floor = loss                           # a failed step over is forgotten once regular
+        threshold = min(loss, self.__dict__.get("_fold_floor") or loss)
         # approaching the point (the conditioning still falling), not leaving it after a step over
         low = np.nonzero((cond[1:] < threshold) & (cond[1:] < cond[:-1]))[0]
         self._last_conditioning = cond
@@ -159,10 +173,11 @@ class ChangePoints:
 
     def _fold_ahead(self, pts):
         """The time of a change point the conditioning at the monitor points `pts` (the start of the
-        last piece checked by `_first_fold`) is heading for, or None when it is far (above
-        100·RANK_LOSS) or not falling."""
+        last piece checked by `_first_fold`) is heading for, or None when it is far (above 100·RANK_LOSS;
+        the closures alone: whenever they fall) or not falling."""
         cond = getattr(self, "_last_conditioning", None)
-        if cond is None or len(pts) < 3 or len(cond) < len(pts) or cond[len(pts) - 1] > 100 * RANK_LOSS:
+        near = np.inf if self._kinematic_block()[2] else 100 * RANK_LOSS
+        if cond is None or len(pts) < 3 or len(cond) < len(pts) or cond[len(pts) - 1] > near:
             return None
         keep = [j for j in range(len(pts)) if j == 0 or pts[j] > pts[j - 1]]
         return _fold_time(np.asarray(pts)[keep], cond[: len(pts)][keep])
@@ -171,9 +186,10 @@ class ChangePoints:
         """Jump from the last of the points (ts, xs, zs) (increasing times, conditioning `conds`) past
         the change point ahead; the new time or None.
 
-        The first try goes as far past the estimated point as the start was before it; then tries
-        double from the last step before the start, up to MAX_GROWTH steps or two output intervals,
-        leaving out those that put a stage of the step next to the point. The states take one
+        The first try goes as far past the estimated point as the start was before it (with the
+        closures measured alone: four times as far first, then that); then tries double from the last
+        step before the start, up to MAX_GROWTH steps or two output intervals, leaving out (closures
+        alone) those that put a stage of the step next to the point. The states take one
         Gauss–Legendre step (`_gauss_step`), its stages' algebraic variables started from the quadratic
         through the last three points. A landing is kept when Newton stayed on that branch at every
         stage and at the landing (the other branch lies O(Δt) away, the prediction O(Δt²)) and the
@@ -186,10 +202,9 @@ class ChangePoints:
         spacing = float(np.max(np.diff(grid))) if grid.size > 1 else h
         longest = min(max(MAX_GROWTH * h, MAX_OUTPUT_INTERVALS * spacing), limit - t1)
         # with the closures measured alone the estimate is sharp (the conditioning falls linearly): no
-        # stage of the step next to the point (ten parallelograms lost 3e-3 J on a stage 0.4 ms from it),
-        # and first a landing four times as far past it as the start is before it, where the integrator
-        # restarts more easily (a restart at the mirror point failed at rtol 1e-10), between the first two
-        # stages (0.13 of the step from each)
+        # stage of the step next to the point (ten parallelograms lost 3e-3 J on a stage 0.4 ms from it);
+        # after the mirror point, a landing four times as far past it as the start is before it (the point
+        # then lies between the first two stages, 0.13 of the step from each)
         sharp = t_star is not None and self._kinematic_block()[2]
         ahead = [5.0, 2.0] if sharp else [2.0]
         tries = [k * (t_star - t1) for k in ahead if t_star is not None and 0 < k * (t_star - t1) <= longest]
@@ -242,10 +257,9 @@ class ChangePoints:
                 gap = np.abs(z_b - z_pred)[watched]
                 if np.any(gap > 0.5 * np.abs(z_line - z1)[watched] + 1e-8 * (1 + np.abs(z_pred[watched]))):
                     continue                                       # Newton went to the other branch
-                t_c = t_b + 0.05 * dt                              # a little further on, along the rates
-                x_c = x_b + 0.05 * dt * np.asarray(self.dae.ode(t_b, x_b, z_b, self._u_at(t_b), self.p,
-                                                                self.d)).ravel()
-                z_c = solve_algebraic(self.dae, t_c, x_c, z_b, self._u_at(t_c), self.p, self.d)
+                t_c = t_b + 0.05 * dt                              # a little further on the step's polynomial
+                x_c, z_guess = self._along(t_c)
+                z_c = solve_algebraic(self.dae, t_c, x_c, z_guess, self._u_at(t_c), self.p, self.d)
                 c_b, c_c = self._conditioning([t_b, t_c], [x_b, x_c], [z_b, z_c], unit_rows)
             except MechnetError:
                 continue
@@ -263,10 +277,11 @@ class ChangePoints:
 
     def _gauss_step(self, t1, x1, dt, rates_guess, z_guess):
         """One step of the 4-stage Gauss–Legendre method (order 8) from (t1, x1) over dt: (x at t1 + dt,
-        the stages' algebraic variables, the stages' rates). Its stages lie at 0.07, 0.33, 0.67 and 0.93 of the step, none
-        at a change point in the middle, where the algebraic block is singular; the states' error over
-        the step is O(dt⁹), where extrapolating along the rates left 0.17 J of 159 at each fold of ten
-        parallelograms. Raises MechnetError when the stage equations do not converge."""
+        the stages' algebraic variables, the stages' rates). Its stages lie at 0.07, 0.33, 0.67 and 0.93 of
+        the step: a step placed around a change point has none at the point, where the algebraic block
+        is singular; the states' error over the step is O(dt⁹), where extrapolating along the rates
+        left 0.17 J of 159 at each fold of ten parallelograms. Raises MechnetError when the stage
+        equations do not converge."""
         dae, n_s = self.dae, len(GAUSS_C)
         nx, nz = dae.x.numel(), dae.z.numel()
         residual, jacobian = built(dae.info, "_gauss_stages", lambda: _gauss_stage_equations(dae))
