@@ -373,12 +373,12 @@ def test_ten_four_bars_crank_error_falls_with_the_tolerance_to_a_micro_radian():
 @pytest.mark.slow
 def test_forty_four_bars_the_benchmarks_own_size():
     # A02 as specified by IFToMM (N = 40; 10 s of its 20 s), at the defaults (rtol 1e-6, atol 1e-8);
-    # compile 17 s, the run about 7 minutes (400 s: 240 algebraic variables, the selection monitor's
+    # compile 17 s, the run about 4 minutes (225 s: 240 algebraic variables, the selection monitor's
     # Jacobians and the conditioning of the closures at every monitor point). Pass criteria as for
-    # N = 10: one passage per flat position (10), the branch kept (1e-9 rad; measured 1.8e-12), the energy
-    # across each passage within 10·rtol·E (E = 620 J; measured 2.3e-3 J), the crank angle at 10 s
-    # within 5000·rtol rad (measured 3.2e-3, the ODE by hand 2.7e-4), the drift within 10× the hand ODE's
-    # (measured 6.9×).
+    # N = 10: one passage per flat position (10), the branch kept (1e-9 rad; measured 1.6e-12), the energy
+    # across each passage within 10·rtol·E (E = 620 J; measured 9.6e-4 J), the crank angle at 10 s
+    # within 5000·rtol rad (measured 3.3e-3, the ODE by hand 2.7e-4), the drift within 10× the hand ODE's
+    # (measured 7.3×).
     out = run_a02(40, 1e-6, 1e-8)
     assert out["passages"] == out["folds"] == 10, out
     assert out["branch"] <= 1e-9, out
