@@ -255,15 +255,16 @@ LIGHT_SCENES = {"light joint": (1.0, 1e-6, 1.0, 1e-6),      # a 1e-6 kg pin betw
 LIGHT_L, LIGHT_G, LIGHT_PHI0, LIGHT_T_END = 1.0, 9.81, 0.3, 1.0
 
 
-def light_chain(masses) -> mn.Model:
-    """World, then n × (Revolute about z + FixedTranslation [L, 0, 0] + Particle m_k): point masses at the
-    link ends; the first link 0.3 rad from hanging down, every further joint bent 0.3 rad, at rest."""
-    m = mn.Model("light_chain")
+def light_chain(masses, length=LIGHT_L, first=LIGHT_PHI0, bend=LIGHT_PHI0, name="light_chain") -> mn.Model:
+    """World, then n × (Revolute about z + FixedTranslation [length, 0, 0] + Particle m_k): point masses at
+    the link ends; the first link `first` rad from hanging down, every further joint bent `bend` rad, at
+    rest (here 0.3 and 0.3; the 50-link chain of test_hard_mechanisms.py uses it too)."""
+    m = mn.Model(name)
     previous = m.add(mb.World(name="world", g=[0.0, -LIGHT_G, 0.0])).frame_b
     for k, mass in enumerate(masses):
         rev = m.add(mb.Revolute(name=f"rev{k}", n=[0, 0, 1], w_start=0.0,
-                                phi_start=LIGHT_PHI0 - (math.pi / 2 if k == 0 else 0.0)))
-        rod = m.add(mb.FixedTranslation(name=f"rod{k}", r=[LIGHT_L, 0, 0]))
+                                phi_start=first - math.pi / 2 if k == 0 else bend))
+        rod = m.add(mb.FixedTranslation(name=f"rod{k}", r=[length, 0, 0]))
         particle = m.add(mb.Particle(name=f"mass{k}", m=mass))
         m.connect(previous, rev.frame_a)
         m.connect(rev.frame_b, rod.frame_a)

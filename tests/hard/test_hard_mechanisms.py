@@ -25,29 +25,17 @@ from mechnet.components import rotational as rot
 from mechnet.components.signals import Constant
 
 from models import slider_crank, slider_crank_x
-from test_hard_cases import SETTINGS, integrate_by_hand
+from test_hard_cases import LIGHT_G, SETTINGS, integrate_by_hand, light_chain
 
 # ----------------------------------------------------------------------------- 6. a 50-link chain
-CHAIN_N, CHAIN_L, CHAIN_M, CHAIN_G = 50, 0.02, 0.02, 9.81      # links, m, kg (point mass at each link's end)
+CHAIN_N, CHAIN_L, CHAIN_M, CHAIN_G = 50, 0.02, 0.02, LIGHT_G   # links, m, kg (point mass at each link's end)
 CHAIN_FIRST, CHAIN_BEND, CHAIN_T = 0.3, 0.05, 1.0              # rad from hanging, rad per joint, s
 
 
 def chain() -> mn.Model:
-    """World, then 50 × (Revolute about z + FixedTranslation [L, 0, 0] + Particle): a 1 m, 1 kg chain
+    """A 1 m, 1 kg chain of 50 links with point masses at their ends (test_hard_cases.light_chain),
     hanging 0.3 rad off the vertical, bent 0.05 rad at every joint, released at rest."""
-    m = mn.Model("chain50")
-    previous = m.add(mb.World(name="world", g=[0.0, -CHAIN_G, 0.0])).frame_b
-    for k in range(CHAIN_N):
-        rev = m.add(mb.Revolute(name=f"rev{k}", n=[0, 0, 1], w_start=0.0,
-                                phi_start=CHAIN_FIRST - np.pi / 2 if k == 0 else CHAIN_BEND))
-        rod = m.add(mb.FixedTranslation(name=f"rod{k}", r=[CHAIN_L, 0, 0]))
-        particle = m.add(mb.Particle(name=f"mass{k}", m=CHAIN_M))
-        m.connect(previous, rev.frame_a)
-        m.connect(rev.frame_b, rod.frame_a)
-        m.connect(rod.frame_b, particle.frame_a)
-        previous = rod.frame_b
-    m.add(mb.SystemEnergy(name="energy"))
-    return m
+    return light_chain([CHAIN_M] * CHAIN_N, CHAIN_L, CHAIN_FIRST, CHAIN_BEND, name="chain50")
 
 
 def chain_by_hand(method, rtol, atol):
