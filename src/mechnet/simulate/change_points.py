@@ -121,8 +121,9 @@ class ChangePoints:
         limit = grid[-1] if limit is None else limit
         if self.failure is None or not self.dae.z.numel():
             return None
-        ts, xs, zs = self._history(np.array(self.T[-1:]), np.array(self.X[-1:]), np.array(self.Z[-1:]))
-        if self.D[-1] is not self.dae or len(ts) < 2:
+        last = self.rows.last
+        ts, xs, zs = self._history(np.array([last.t]), last.x.reshape(1, -1), last.z.reshape(1, -1))
+        if last.dae is not self.dae or len(ts) < 2:
             return None
         t_b = self._step_over_losing_rank(grid, limit, ts, xs, zs)
         if t_b is not None:
@@ -302,11 +303,11 @@ class ChangePoints:
         keep = [j for j in range(len(pts)) if j == 0 or pts[j] > pts[j - 1]]
         ts, X, Z = list(pts[keep]), list(xs[keep]), list(zs[keep])
         since = self.events[-1].t if self.events else -np.inf   # not across a jump, reset or switch
-        k = len(self.T) - 1
-        while len(ts) < HISTORY and k >= 0 and self.D[k] is self.dae and self.T[k] >= since:
-            if self.T[k] < ts[0]:
-                ts.insert(0, self.T[k]), X.insert(0, self.X[k]), Z.insert(0, self.Z[k])
-            k -= 1
+        for row in self.rows.backwards():
+            if len(ts) >= HISTORY or row.dae is not self.dae or row.t < since:
+                break
+            if row.t < ts[0]:
+                ts.insert(0, row.t), X.insert(0, row.x), Z.insert(0, row.z)
         return np.array(ts[-HISTORY:]), np.array(X[-HISTORY:]), np.array(Z[-HISTORY:])
 
     def _branch_variables(self):

@@ -1,9 +1,6 @@
 """`simulate`: check the arguments, initialise, run the simulation loop (`run.py`), assemble the `Result`."""
 from __future__ import annotations
 
-import itertools
-import operator
-
 import time as _time
 import warnings
 
@@ -127,42 +124,37 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     stats["wall_time"] = _time.perf_counter() - wall
     stats["plugin"] = run.choice.plugin
     stats["solver_messages"] = messages
-    T = np.array(run.T)
+    T = run.rows.times()
+    stretches = list(run.rows.by_selection())
 
     def observe() -> np.ndarray:
         values = np.empty((T.size, len(dae.observed_names)))
         k = 0
-        while k < T.size:                  # rows integrated with the same selection, observed together
-            j = k
-            while j + 1 < T.size and run.D[j + 1] is run.D[k]:
-                j += 1
-            X = np.array(run.X[k: j + 1]).reshape(j + 1 - k, -1)
-            Z = np.array(run.Z[k: j + 1]).reshape(j + 1 - k, -1)
-            values[k: j + 1] = _observe(run.D[k], T[k: j + 1], X, Z, plan, p, np.array(run.M[k: j + 1]))
-            k = j + 1
+        for sel, t, X, Z, D in stretches:     # rows integrated with the same selection, observed together
+            values[k: k + t.size] = _observe(sel, t, X, Z, plan, p, D)
+            k += t.size
         return values
 
-    final = run.D[-1] if run.D else dae
-    if T.size and final.invariant_names:
+    final = run.rows.last if T.size else None
+    final_dae = final.dae if T.size else dae
+    if T.size and final_dae.invariant_names:
         # how far the constraints (and |Q| = 1) drifted by the end, in the selection that ended the run
-        c = final.invariants(float(T[-1]), *(ca.DM(np.asarray(v, dtype=float).ravel()) for v in
-                                             (run.X[-1], run.Z[-1], run._u_at(T[-1]), p, run.M[-1]))).full().ravel()
+        c = final_dae.invariants(float(T[-1]), *(ca.DM(np.asarray(v, dtype=float).ravel()) for v in
+                                                 (final.x, final.z, run._u_at(T[-1]), p, final.d))).full().ravel()
         stats["invariants_at_end"] = float(np.max(np.abs(c))) if c.size else 0.0
     known = {}
-    if T.size and all(map(operator.is_, run.D, itertools.repeat(final))):   # (identity, at C speed)
+    if len(stretches) == 1:
         # one selection throughout: its states and algebraics are the run's own; every other name is
         # computed when first asked for (most callers read a few names of hundreds)
-        X = np.concatenate(run.X).reshape(T.size, -1)      # (rows of one length: faster than np.array)
-        Z = np.concatenate(run.Z).reshape(T.size, -1)
-        known = {**{n: X[:, k] for k, n in enumerate(final.x_names)},
-                 **{n: Z[:, k] for k, n in enumerate(final.z_names)}}
+        _, _, X, Z, _ = stretches[0]
+        known = {**{n: X[:, k] for k, n in enumerate(final_dae.x_names)},
+                 **{n: Z[:, k] for k, n in enumerate(final_dae.z_names)}}
         observed = observe
     else:
         observed = observe()
         column = {n: c for c, n in enumerate(dae.observed_names)}
-        X = observed[:, [column[n] for n in final.x_names if n in column]] \
-            if all(n in column for n in final.x_names) else np.array(run.X)
-    result = Result(T, observed, dae.observed_names, dae.units, stats, X, np.zeros((T.size, 0)), final.x_names,
+        X = observed[:, [column[n] for n in final_dae.x_names]]     # (every selection's states are observed)
+    result = Result(T, observed, dae.observed_names, dae.units, stats, X, np.zeros((T.size, 0)), final_dae.x_names,
                     events=run.events, failure=run.failure, known=known, title=cm.name,
                     initial={"fixed": init.fixed, "free_states": init.free_states, "residual": init.residual})
     if run.failure is not None:

@@ -108,7 +108,7 @@ class MonitoredPieces:
                 continue
             if not ok:
                 if self._recover(np.concatenate([[t_cur], grid[k + 1: k_end + 1]]), message):
-                    t_next = self.T[-1]                # integrated after all (one output interval at a time)
+                    t_next = self.rows.last.t          # integrated after all (one output interval at a time)
                 else:
                     t_next = self._pass_change_point(grid)
                 if t_next is None:
@@ -250,7 +250,7 @@ class MonitoredPieces:
         try:
             self._renormalise()
             ox, oz = self._turns(self.x, self.z)
-            F, out = self._call(t0, h, lambda: self.integrators.get(tau, budget), (self.x - ox) / self.xn,
+            s, out = self._call(t0, h, lambda: self.integrators.get(tau, budget), (self.x - ox) / self.xn,
                                 (self.z - oz) / self.zn if self.zn.size else np.zeros(0), self.pvec(t0, h),
                                 budgeted=budget is not None and budget < self.integrators.max_steps)
         except RuntimeError as exc:
@@ -259,7 +259,6 @@ class MonitoredPieces:
             reached = self.integrators.get(tau, budget).stats().get("tcur", float("nan"))
             self._failed_at = t0 + reached * h if np.isfinite(reached) and 0 < reached < 1 else None
             return False, str(exc), None, None
-        s = F.stats()
         self._count(s, h)
         # the mean step of this piece (the last step alone can be tiny: a restart, an output time)
         self._mean_step = h / max(int(s.get("nsteps", 0)), 1)
@@ -275,7 +274,8 @@ class MonitoredPieces:
         monitor did not foresee then fails after about a thousand steps per monitor interval instead
         of crawling to max_steps (0.7 s each on the parallelogram); it is retried shorter, and a piece
         of one output interval runs without the limit."""
-        steps, t_done = self.stats["nsteps"], (self.T[-1] - self.T[0]) if len(self.T) > 1 else 0.0
+        steps, t_done = self.stats["nsteps"], (self.rows.last.t - self.rows.first_time) \
+            if len(self.rows) > 1 else 0.0
         if steps < 100 or t_done <= 0:
             return None
         budget = 2 ** int(np.ceil(np.log2(max(1024.0, 8.0 * steps / t_done * gap))))

@@ -87,8 +87,8 @@ class Reselection:
         self.monitor.current = dummies
         self._last_full_check = None
         self.events.append(Event(float(t), "reselection", cause))
-        if self.T and self.T[-1] == t:
-            self.X[-1], self.Z[-1], self.D[-1] = self.x.copy(), self.z.copy(), new_dae
+        if len(self.rows) and self.rows.last.t == t:
+            self.rows.replace_last(self.x, self.z, new_dae)
 
 
 def dae_arguments(dae) -> list:

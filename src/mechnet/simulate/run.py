@@ -24,6 +24,7 @@ from .events import Event, chunk_bounds
 from .initialize import solve_algebraic
 from .pieces import MonitoredPieces
 from .reselection import Reselection, SelectionMonitor
+from .rows import Rows
 from .solvers import Integrators, MethodChoice, call, solver_message
 from .state_events import StateEvents
 from .winding import TURN_LIMIT, WINDING_POINTS, turns_of, whole_turns
@@ -50,8 +51,7 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         self._probing = choice.fallback is not None
         self._pending = None                           # a method switch not yet stamped with its time
         self._use(dae)
-        self.T, self.X, self.Z, self.D = [], [], [], []
-        self.M = []                                    # the modes d of each row
+        self.rows = Rows()
         self.events: list[Event] = []
         self.failure = None
         self.stats = {"nsteps": 0, "nfevals": 0, "netfails": 0, "nncfails": 0, "segments": 0,
@@ -82,11 +82,7 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         return Integrators(self.cm, dae, plugin, extra, rtol, atol, max_steps, self.plan)
 
     def _record(self, t):
-        self.T.append(t)
-        self.X.append(self.x.copy())
-        self.Z.append(self.z.copy())
-        self.D.append(self.dae)
-        self.M.append(self.d)
+        self.rows.add_row(t, self.x, self.z, self.dae, self.d)
 
     def pvec(self, t0, h):
         """Parameters of an integrator call from t0 over h: the input tables' values depend on t0 (each
@@ -238,7 +234,7 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         xs = (self.x - ox) / self.xn
         zs = (self.z - oz) / self.zn if self.zn.size else np.zeros(0)
         try:
-            F, out = self._call(t0, h, get, xs, zs, self.pvec(t0, h))
+            stats, out = self._call(t0, h, get, xs, zs, self.pvec(t0, h))
         except RuntimeError as exc:
             return False, str(exc)
         xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn + ox
@@ -247,12 +243,8 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         self.x, self.z = xf[-1].copy(), zf[-1].copy()
         if keep is not None:
             xf, zf = xf[keep], zf[keep]
-        self.T.extend(points[1:] if keep is None else points[1:][keep])
-        self.X.extend(xf)
-        self.Z.extend(zf)
-        self.D.extend([self.dae] * len(xf))
-        self.M.extend([self.d] * len(xf))
-        self._count(F.stats(), h)
+        self.rows.add(points[1:] if keep is None else points[1:][keep], xf, zf, self.dae, self.d)
+        self._count(stats, h)
         return True, ""
 
     def _count(self, s, h):
@@ -264,7 +256,8 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
 
     def _call(self, t0, h, get, xs, zs, p, budgeted=False):
         """One integrator call, F = get() from (xs, zs) with parameters p over [t0, t0 + h]: every call of
-        the run goes through here. Returns (F, outputs) or raises RuntimeError as `solvers.call` does.
+        the run goes through here. Returns (F.stats(), outputs) or raises RuntimeError as `solvers.call`
+        does.
 
         Under method="auto" an ODE starts with Adams' functional iteration, which stiffness defeats: its
         steps shrink to the fast time scale and fail to converge on a good share of them (a 1e8 N/m
@@ -281,14 +274,15 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
             code = solver_message(str(exc))
             if self.choice.fallback is None or (budgeted and code.endswith("TOO_MUCH_WORK")):
                 raise
-            return self._after_adams_failed(code, t0, get, xs, zs, p)
+            F, out = self._after_adams_failed(code, t0, get, xs, zs, p)
+            return F.stats(), out
+        s = F.stats()
         if self.choice.fallback is not None:
-            s = F.stats()
             steps, failures = int(s.get("nsteps", 0)), int(s.get("nncfails", 0))
             if steps >= STIFF_MIN_STEPS and failures >= STIFF_SHARE * steps:
                 self._switch("cvodes-bdf", None, f"stiff: Adams' functional iteration failed to converge on "
                                                  f"{failures} of {steps} steps")
-        return F, out
+        return s, out
 
     def _after_adams_failed(self, code, t0, get, xs, zs, p):
         """The Adams call of `_call` failed with solver code `code`: the call again with BDF. When Adams ran
@@ -361,7 +355,8 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         """A time event: states are continuous; algebraic variables are re-solved at the new time."""
         if self.zn.size:
             self.z = solve_algebraic(self.dae, t, self.x, self.z, self._u_at(t), self.p, self.d)
-            self.Z[-1] = self.z.copy()
+            last = self.rows.last
+            self.rows.replace_last(last.x, self.z, last.dae)
         self.events.append(Event(float(t), "time", cause))
         self._after_time_event(t)
 
@@ -377,7 +372,7 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         """
         solver = solver_message(message)
         n = points.size - 1
-        if self.zn.size and self.T:
+        if self.zn.size and len(self.rows):
             # restart from algebraics consistent to Newton's precision, not just to the integrator's:
             # IDAS's own initial-condition search can fail on a point that is consistent only to rtol
             try:
@@ -401,9 +396,9 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
             break
         if a == n:
             return True                                # every piece integrated: no failure after all
-        if self.T[-1] != t_state:
+        if self.rows.last.t != t_state:
             self._record(t_state)                 # an unrecorded piece end: the partial result ends there
-        t_good = self.T[-1]
+        t_good = self.rows.last.t
         step = self.stats.get("hlast", float("nan"))
         worst = _worst_variable(self.dae, t_good, self.x, self.z, self._u_at(t_good), self.p, self.d, self.xn)
         where = f"between t = {t_good:.6g} s and {t_fail:.6g} s" if t_fail > t_good else \
