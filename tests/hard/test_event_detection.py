@@ -130,10 +130,15 @@ def test_a_failure_while_locating_an_event_keeps_the_partial_result(oscillator, 
         if tau != (1.0,):
             return F
 
-        def broken(**kwargs):
-            raise RuntimeError('IDACalcIC returned "IDA_LINESEARCH_FAIL"')
-        broken.stats = F.stats
-        return broken
+        class Broken:                   # an integrator whose every call fails (solvers.call runs a buffer)
+            def buffer(self):
+                def trigger():
+                    raise RuntimeError('IDACalcIC returned "IDA_LINESEARCH_FAIL"')
+                return F.buffer()[0], trigger
+
+            def __getattr__(self, name):
+                return getattr(F, name)
+        return Broken()
 
     monkeypatch.setattr(Integrators, "get", failing)
     # BDF asked for: under "auto" the failing Adams search would first fall back to BDF (and fail again)

@@ -256,7 +256,7 @@ class MonitoredPieces:
         except RuntimeError as exc:
             # after a failure CasADi's `tcur` is the last output time the solver reached (normalised; 0
             # when it failed before the first): the failure lies after it
-            reached = self.integrators.get(tau, budget).stats().get("tcur", float("nan"))
+            reached = getattr(exc, "stats", {}).get("tcur", float("nan"))
             self._failed_at = t0 + reached * h if np.isfinite(reached) and 0 < reached < 1 else None
             return False, str(exc), None, None
         self._count(s, h)

@@ -256,8 +256,7 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
 
     def _call(self, t0, h, get, xs, zs, p, budgeted=False):
         """One integrator call, F = get() from (xs, zs) with parameters p over [t0, t0 + h]: every call of
-        the run goes through here. Returns (F.stats(), outputs) or raises RuntimeError as `solvers.call`
-        does.
+        the run goes through here. Returns (statistics, outputs) or raises `solvers.SolverFailure`.
 
         Under method="auto" an ODE starts with Adams' functional iteration, which stiffness defeats: its
         steps shrink to the fast time scale and fail to converge on a good share of them (a 1e8 N/m
@@ -267,16 +266,13 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         successful one whose iteration failed on STIFF_SHARE of its steps hands the rest to BDF."""
         if self._pending is not None:            # a switch takes effect with the first call that uses it
             self._record_switch(t0)
-        F = get()
         try:
-            out = call(F, xs, zs, p)
+            s, out = call(get(), xs, zs, p)
         except RuntimeError as exc:
             code = solver_message(str(exc))
             if self.choice.fallback is None or (budgeted and code.endswith("TOO_MUCH_WORK")):
                 raise
-            F, out = self._after_adams_failed(code, t0, get, xs, zs, p)
-            return F.stats(), out
-        s = F.stats()
+            return self._after_adams_failed(code, t0, get, xs, zs, p)
         if self.choice.fallback is not None:
             steps, failures = int(s.get("nsteps", 0)), int(s.get("nncfails", 0))
             if steps >= STIFF_MIN_STEPS and failures >= STIFF_SHARE * steps:
@@ -292,16 +288,14 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         if not (self._probing and code.endswith("TOO_MUCH_WORK")):
             self._switch("cvodes-bdf", None, f"Adams failed ({code})")
             self._record_switch(t0)
-            F = get()
-            return F, call(F, xs, zs, p)
+            return call(get(), xs, zs, p)
         probe = self.integrators.max_steps
         adams = self.choice
         self.choice = MethodChoice("cvodes-bdf", adams.reason)
         self.settings = (self.choice.plugin, self.choice.options, *self.settings[2:])
         self.integrators = self._integrators(self.dae, max(1, probe // STIFF_GAIN))
         try:
-            F = get()
-            out = call(F, xs, zs, p)
+            done = call(get(), xs, zs, p)
         except RuntimeError as again:
             if not solver_message(str(again)).endswith("TOO_MUCH_WORK"):
                 self._switch("cvodes-bdf", None, f"Adams failed ({code}), and BDF after it")
@@ -312,12 +306,11 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
                                                        f"output interval) and BDF of {probe // STIFF_GAIN}: long "
                                                        f"intervals, not stiffness; Adams without the probe budget")
             self._record_switch(t0)
-            F = get()
-            return F, call(F, xs, zs, p)
+            return call(get(), xs, zs, p)
         self._switch("cvodes-bdf", None, f"stiff: Adams ran out of its probe budget ({probe} steps per output "
                                          f"interval) where BDF needed at most {probe // STIFF_GAIN}")
         self._record_switch(t0)
-        return F, out
+        return done
 
     def _switch(self, method, fallback, why):
         """Integrate with `method` from the next call on (falling back to `fallback` on stiffness); the
