@@ -59,6 +59,8 @@ def _whole_turns(dae) -> tuple[np.ndarray, np.ndarray]:
 def turns_of(values, period) -> np.ndarray:
     """The whole turns in `values` (0 where the period is 0): what the integrator leaves out."""
     values = np.asarray(values, dtype=float)
+    if not period.any():                 # (most scenes: no periodic coordinate, and a call per integration)
+        return np.zeros_like(values)
     return np.where(period > 0, np.round(values / np.where(period > 0, period, 1.0)), 0.0) * period
 
 
