@@ -194,12 +194,13 @@ def jacobian_options(dae, plugin: str, extra: dict) -> dict:
 
 
 class SolverFailure(RuntimeError):
-    """An integrator call failed: CasADi's text (with the solver's code) and the call's statistics up to
-    the failure (`tcur`: the last output time it reached)."""
+    """An integrator call failed: CasADi's text (with the solver's code), the call's statistics up to
+    the failure (`tcur`: where the solver stopped) and its outputs ({"xf", "zf"} as `call` returns them:
+    the output times it reached filled in, NaN after)."""
 
-    def __init__(self, text: str, stats: dict):
+    def __init__(self, text: str, stats: dict, outputs: dict | None = None):
         super().__init__(text)
-        self.stats = stats
+        self.stats, self.outputs = stats, outputs
 
 
 def call(F, xs, zs, p) -> tuple[dict, dict]:
@@ -220,7 +221,9 @@ def call(F, xs, zs, p) -> tuple[dict, dict]:
 def _on_numpy(F, xs, zs, p) -> dict:
     """F(x0=xs, z0=zs, p=p) through a buffer on numpy memory: a keyword call converts three inputs and
     seven outputs through DM, 90 µs of a small model's 400 µs call (`numeric.NumpyCall`). The
-    statistics are the buffer's (F.stats() holds only those of calls through F's own memory)."""
+    statistics are the buffer's (F.stats() holds only those of calls through F's own memory). The
+    integrator writes each output time's column as it reaches it, so a failed call keeps the solution
+    up to where it stopped (the columns after stay NaN)."""
     buffer, trigger = F.buffer()
     inputs = [np.ascontiguousarray(v, dtype=float).ravel() for v in (xs, zs, p)]
     for name, v in zip(("x0", "z0", "p"), inputs):
@@ -229,7 +232,7 @@ def _on_numpy(F, xs, zs, p) -> dict:
     for name in ("xf", "zf"):
         i = F.index_out(name)
         rows, cols = F.size_out(i)
-        out = np.empty((cols, rows))              # column-major storage: the transpose in C order
+        out = np.full((cols, rows), np.nan)       # column-major storage: the transpose in C order
         buffer.set_res(i, memoryview(out))
         outputs[name] = out.T
     try:
@@ -239,7 +242,7 @@ def _on_numpy(F, xs, zs, p) -> dict:
             stats = buffer.stats()
         except RuntimeError:                       # it failed before the solver started: no statistics
             stats = {}
-        raise SolverFailure(str(exc), stats) from None
+        raise SolverFailure(str(exc), stats, outputs) from None
     return buffer.stats(), outputs
 
 
