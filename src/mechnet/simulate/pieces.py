@@ -284,6 +284,7 @@ class MonitoredPieces:
                 if m:
                     self._partial = (pts[: m + 1], np.vstack([self.x, xf[:m]]),
                                      np.vstack([self.z.reshape(1, -1), zf[:m]]))
+                    self._partial_stats = (getattr(exc, "stats", {}), h)
             return False, str(exc), None, None
         self._count(s, h)
         # the mean step of this piece (the last step alone can be tiny: a restart, an output time)
@@ -301,7 +302,10 @@ class MonitoredPieces:
         self.refine_at = None
         _, due = self._ratios(*self._partial)
         self.refine_at = None
-        return self._partial if due is not None else None
+        if due is None:
+            return None
+        self._count(*self._partial_stats)          # its steps count: they are the run's
+        return self._partial
 
     def _step_budget(self, gap):
         """Step limit of a monitored piece whose monitor points lie at most `gap` apart (SUNDIALS counts
