@@ -45,6 +45,8 @@ def terminal():
 
 
 def _install():
+    if isinstance(sys.stderr, _ThreadStream):        # installed (every run asks: no lock needed to see it)
+        return
     with _install_lock:
         # no stderr at all (pythonw, a daemon): nothing to wrap, and a run's text is only what CasADi
         # writes while captured
