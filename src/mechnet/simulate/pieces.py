@@ -8,11 +8,6 @@ from .winding import WINDING_POINTS
 
 SOLVER_STEPS_PER_CHECK = 16.0   # the state-selection monitor checks its quality about this often
 HORIZON_REACH = 2.0             # a piece aimed at a predicted switch reaches this many times as far,
-BUDGET_FLOOR_SWITCHING = 256    # steps per monitor interval a piece may take at least, once the run has switched
-                                # states (else 1024): running on past a switch into the old selection's
-                                # singular point, the solver crawls (the Cartesian pendulum: up to 3000 steps,
-                                # 2300 failed, per piece); the part before holds the switch (`_switch_in_partial`)
-QUIET = ("time", "reselection")  # events after which pieces still grow fast (`_integrate_monitored`)
 PIECE_GROWTH = 4                # and one that needed no cut makes the next this many times longer (both
                                 # while the run has had no switch, change point or state event)
 MAX_PIECE_POINTS = 20_000       # monitor points in one piece at most
@@ -78,15 +73,7 @@ class MonitoredPieces:
             pts, is_output, span_at = _monitor_points(t_cur, starts, ends, density,
                                                       min(spacing, wind / WINDING_POINTS), grid[k + 1], grid_set,
                                                       t_cur + min(reach, wind))
-            switching = getattr(self, "_reselections", 0) > 0
-            ok, message, xs, zs = self._dense(pts, budgeted=per_piece > 1 or fraction < 1 or switching)
-            if not ok and switching:
-                reached = self._switch_in_partial(pts)
-                if reached is not None:
-                    # the solver gave up inside the piece (its step budget, running on past a switch into
-                    # the running selection's singular point): the part it reached holds the switch
-                    pts, xs, zs = reached
-                    is_output, span_at, ok = is_output[: pts.size], span_at[: pts.size], True
+            ok, message, xs, zs = self._dense(pts, budgeted=per_piece > 1 or fraction < 1)
             if ok and self.dae.zero_labels and redone < 3:
                 # coarser than the solver's own steps, or than the zero functions' own rates allow:
                 # integrate again finer before searching crossings
@@ -207,15 +194,12 @@ class MonitoredPieces:
                 # a switch cut the piece: what came after it was wasted, so aim shorter next time
                 per_piece = max(1, min(per_piece, int(np.ceil(span_at[stop] * 1.5))))
             else:
-                # while nothing but time events and switches has happened, pieces grow fast and far (a
-                # mechanism pays few restarts: each costs IDAS its ramp-up, and adds its error; a piece
-                # running on past a switch is cut by its step budget where the old selection turns
-                # singular, `_switch_in_partial`); once the run has stepped over a change point or
-                # stopped at a state event, more will likely come: pieces grow by 2 up to a fifth of the
-                # run and aim at the straight-line horizon, so little is integrated past each. (The
-                # Cartesian pendulum, 10 periods on 4000 output intervals: 62 integrator calls, energy
-                # drift 3.3e-5; 133 calls and 4.4e-5 with slow growth after switches.)
-                quiet = all(e.kind in QUIET for e in self.events)
+                # while nothing but time events has happened, pieces grow fast and far (a mechanism that
+                # never switches pays few restarts); once the run has switched, stepped over a change
+                # point or stopped at a state event, more will likely come: pieces grow by 2 up to a fifth
+                # of the run and aim at the straight-line horizon, so little is integrated past each
+                # (the Cartesian pendulum's 40 switches took 78 % more steps with fast growth)
+                quiet = all(e.kind == "time" for e in self.events)
                 factor = HORIZON_REACH if quiet else 1.0        # of the straight-line horizon (below)
                 per_piece = min(longest, PIECE_GROWTH * per_piece) if quiet else \
                     min(max(1, n_int // 5), 2 * per_piece)
@@ -274,17 +258,6 @@ class MonitoredPieces:
             # when it failed before the first): the failure lies after it
             reached = getattr(exc, "stats", {}).get("tcur", float("nan"))
             self._failed_at = t0 + reached * h if np.isfinite(reached) and 0 < reached < 1 else None
-            self._partial = None
-            outputs = getattr(exc, "outputs", None)
-            if outputs is not None:
-                xf = outputs["xf"].T * self.xn + ox
-                zf = outputs["zf"].T * self.zn + oz if self.zn.size else np.zeros((xf.shape[0], 0))
-                done = np.all(np.isfinite(xf), axis=1) & np.all(np.isfinite(zf), axis=1)
-                m = int(np.argmin(done)) if not done.all() else done.size       # output times reached
-                if m:
-                    self._partial = (pts[: m + 1], np.vstack([self.x, xf[:m]]),
-                                     np.vstack([self.z.reshape(1, -1), zf[:m]]))
-                    self._partial_stats = (getattr(exc, "stats", {}), h)
             return False, str(exc), None, None
         self._count(s, h)
         # the mean step of this piece (the last step alone can be tiny: a restart, an output time)
@@ -293,19 +266,6 @@ class MonitoredPieces:
         zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn + oz) if self.zn.size \
             else np.zeros((xf.shape[0], 0))
         return True, "", np.vstack([self.x, xf]), np.vstack([self.z.reshape(1, -1), zf])
-
-    def _switch_in_partial(self, pts):
-        """(points, states, algebraics) of the part of a failed piece the solver reached (`_dense`), when
-        the monitor finds a switch due inside it; else None."""
-        if getattr(self, "_partial", None) is None or self._partial[0].size < 2:
-            return None
-        self.refine_at = None
-        _, due = self._ratios(*self._partial)
-        self.refine_at = None
-        if due is None:
-            return None
-        self._count(*self._partial_stats)          # its steps count: they are the run's
-        return self._partial
 
     def _step_budget(self, gap):
         """Step limit of a monitored piece whose monitor points lie at most `gap` apart (SUNDIALS counts
@@ -318,8 +278,7 @@ class MonitoredPieces:
             if len(self.rows) > 1 else 0.0
         if steps < 100 or t_done <= 0:
             return None
-        floor = BUDGET_FLOOR_SWITCHING if getattr(self, "_reselections", 0) else 1024.0
-        budget = 2 ** int(np.ceil(np.log2(max(floor, 8.0 * steps / t_done * gap))))
+        budget = 2 ** int(np.ceil(np.log2(max(1024.0, 8.0 * steps / t_done * gap))))
         return budget if budget < self.settings[4] else None
 
 

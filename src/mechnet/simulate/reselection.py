@@ -87,7 +87,6 @@ class Reselection:
         self.monitor.current = dummies
         self._last_full_check = None
         self.events.append(Event(float(t), "reselection", cause))
-        self._reselections = getattr(self, "_reselections", 0) + 1
         if len(self.rows) and self.rows.last.t == t:
             self.rows.replace_last(self.x, self.z, new_dae)
 

@@ -83,7 +83,9 @@ class Rows:
             while j + 1 < len(self.blocks) and self.blocks[j + 1].dae is self.blocks[k].dae:
                 j += 1
             part = self.blocks[k: j + 1]
-            d = np.broadcast_to(part[0].d, (len(part[0].t), len(part[0].d))) if len(part) == 1 else np.concatenate([np.tile(np.asarray(b.d, dtype=float).reshape(1, -1), (len(b.t), 1)) for b in part])
+            rows = sum(len(b.t) for b in part)
+            d = np.broadcast_to(part[0].d, (rows, len(part[0].d))) if all(b.d is part[0].d for b in part) \
+                else np.concatenate([np.tile(np.asarray(b.d, dtype=float).reshape(1, -1), (len(b.t), 1)) for b in part])
             yield (part[0].dae, _joined([b.t for b in part]), _joined([b.x for b in part]),
                    _joined([b.z for b in part]), d)
             k = j + 1

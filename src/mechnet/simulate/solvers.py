@@ -218,7 +218,7 @@ def call(F, xs, zs, p) -> tuple[dict, dict]:
         return _on_numpy(F, xs, np.asarray(zs) * (1 + 1e-6) + 1e-9, p)
 
 
-def _on_numpy(F, xs, zs, p) -> dict:
+def _on_numpy(F, xs, zs, p) -> tuple[dict, dict]:
     """F(x0=xs, z0=zs, p=p) through a buffer on numpy memory: a keyword call converts three inputs and
     seven outputs through DM, 90 µs of a small model's 400 µs call (`numeric.NumpyCall`). The
     statistics are the buffer's (F.stats() holds only those of calls through F's own memory). The
@@ -227,7 +227,10 @@ def _on_numpy(F, xs, zs, p) -> dict:
     buffer, trigger = F.buffer()
     inputs = [np.ascontiguousarray(v, dtype=float).ravel() for v in (xs, zs, p)]
     for name, v in zip(("x0", "z0", "p"), inputs):
-        buffer.set_arg(F.index_in(name), memoryview(v))
+        i = F.index_in(name)
+        if v.size != F.nnz_in(i):                 # (a buffer takes any longer memory without a word)
+            raise ValueError(f"integrator input {name}: {v.size} values, expected {F.nnz_in(i)}")
+        buffer.set_arg(i, memoryview(v))
     outputs = {}
     for name in ("xf", "zf"):
         i = F.index_out(name)
