@@ -14,6 +14,7 @@ derived independently of mechnet, at the default settings (rtol 1e-6, atol 1e-8)
 from __future__ import annotations
 
 import functools
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -339,6 +340,43 @@ def test_ten_four_bars_pass_their_change_points_on_their_branch(rtol, atol):
     assert out["jump"] <= 10 * rtol * out["energy"], out
     assert out["error"] <= 3000 * rtol, out
     assert out["drift"] <= 10 * out["hand_drift"], out
+
+
+def test_an_output_at_a_fold_records_the_motion_not_the_singular_speed_formulas(monkeypatch):
+    # A02 with N = 10 at rtol 1e-4, atol 1e-6, outputs every 25 ms: the step over the tenth flat position,
+    # from t = 9.15 s, as a CI run took it (data/a02_fold_at_output.npz: the four points before the step
+    # and their conditioning). Its output at 9.175 s lies 0.2 ms from where the cranks lie flat, where
+    # every speed formula of the running selection divides zero by zero; it once carried 4e7 J. Pass
+    # criteria: the step lands past 9.175 s; the case still tests the singular point (the algebraic
+    # block's conditioning there below 1e-3, from 0.17 at the start); the energy at every output
+    # inside the step within 10·rtol·E of the start's (E = 158.9 J, as across each passage); every
+    # crank at the first's speed within 1e-6 rad/s (the parallelogram branch).
+    from mechnet.simulate.rows import Rows, observe
+    from mechnet.simulate.run import Run
+    cm = a02_compiled(10)
+    case = np.load(Path(__file__).parent / "data" / "a02_fold_at_output.npz")
+    x_at = [list(case["x_names"]).index(n) for n in cm.dae.x_names]
+    z_at = [list(case["z_names"]).index(n) for n in cm.dae.z_names]
+    ts, xs, zs, conds = case["ts"], case["xs"][:, x_at], case["zs"][:, z_at], case["conds"]
+    runs, integrate = [], Run.integrate
+    monkeypatch.setattr(Run, "integrate", lambda self, *a: (runs.append(self), integrate(self, *a))[1])
+    cm.simulate(0.1, rtol=1e-4, atol=1e-6, progress=False)     # a run of these settings, to step with
+    run = runs[0]
+    run.rows, run.events, run.x, run.z = Rows(), [], xs[-1].copy(), zs[-1].copy()
+    t_b = run._step_over(np.linspace(0.0, A02_T, 401), A02_T, ts, xs, zs, conds)
+    assert t_b is not None and t_b > 9.175, t_b
+    names = cm.dae.observed_names
+    start = observe(cm.dae, ts[-1:], xs[-1:], zs[-1:], run.plan, run.p, np.zeros((1, 0)))[0]
+    rows = [(t, x, z, given) for _, t, x, z, _, given in run.rows.by_selection()]
+    assert np.allclose(np.concatenate([r[0] for r in rows]), [9.175, 9.2, 9.225], rtol=0, atol=1e-12), rows
+    for t, x, z, given in rows:
+        y = observe(cm.dae, t, x, z, run.plan, run.p, np.zeros((t.size, 0))) if given is None else given
+        energy = y[:, names.index("energy.total")]
+        assert np.all(np.abs(energy - start[names.index("energy.total")]) <= 10 * 1e-4 * 158.9), (t, energy)
+        speeds = y[:, [names.index(f"pivot{k}.w") for k in range(11)]]
+        assert np.all(np.ptp(speeds, axis=1) <= 1e-6), (t, speeds)
+    t, x, z, _ = rows[0]
+    assert run._conditioning(t, x, z)[0] < 1e-3
 
 
 @pytest.mark.slow

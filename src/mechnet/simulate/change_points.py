@@ -25,6 +25,7 @@ from ..numeric import mapped_in
 from .events import Event
 from .initialize import _newton, _residual_pair, solve_algebraic
 from .reselection import dae_arguments
+from .rows import observe
 
 RANK_LOSS = 1e-4          # conditioning of the algebraic block below this: the constraints are losing rank
 CLOSURE_RANK_LOSS = 0.05  # the same for the closures measured alone (`_kinematic_block`), relative to their
@@ -270,7 +271,9 @@ class ChangePoints:
             if c_c <= c_b or c_b < (0.5 * conds[-1] if kinematic else
                                     0.1 * max(conds[-1], RANK_LOSS) if unit_rows else 0.1 * conds[-1]):
                 continue                    # not past the point yet, or too near it for the integrator
-            self._bridge(grid, t1, x1, z1, t_b, x_b, z_b, self._along)
+            regular = (np.array([ts[-2], t1, t_b, t_c]), np.array([xs[-2], x1, x_b, x_c]),
+                       np.array([zs[-2], z1, z_b, z_c]))
+            self._bridge(grid, t1, x1, z1, t_b, x_b, z_b, self._along, regular)
             where = f"estimated at t = {t_star:.9g} s; " if t_star is not None else ""
             self.events.append(Event(float(t_b), "change point",
                                      f"constraint Jacobian lost rank (algebraic block conditioning "
@@ -310,33 +313,59 @@ class ChangePoints:
                 ts.insert(0, row.t), X.insert(0, row.x), Z.insert(0, row.z)
         return np.array(ts[-HISTORY:]), np.array(X[-HISTORY:]), np.array(Z[-HISTORY:])
 
-    def _branch_variables(self):
-        """Algebraic variables that decide the branch: coordinates and speeds (variables with a
+    def _branch_names(self) -> set:
+        """Names of the variables that decide the branch: coordinates and speeds (variables with a
         derivative), not forces and accelerations, which change fast near the point."""
         factory = self.cm.selection_factory
-        moving = {factory.names[v] for v in factory.graph.der} if factory is not None else set()
+        return {factory.names[v] for v in factory.graph.der} if factory is not None else set()
+
+    def _branch_variables(self):
+        """Which algebraic variables decide the branch (`_branch_names`); all when none is known."""
+        moving = self._branch_names()
         mask = np.array([name in moving for name in self.dae.z_names], dtype=bool)
         return mask if mask.any() else np.ones(len(self.dae.z_names), dtype=bool)
 
-    def _bridge(self, grid, t1, x1, z1, t_b, x_b, z_b, along):
+    def _bridge(self, grid, t1, x1, z1, t_b, x_b, z_b, along, regular):
         """Output points inside the step over the change point: the states on the step's collocation
         polynomial (`along`), the algebraic variables solved there when Newton stays on the branch
-        (within half the step's change of each coordinate and speed of the guess, as for the landing),
-        else linear between the ends: next to the point the block is singular, and a solution of the
-        nearly singular speed equations can lie anywhere (one in a CI run carried 4e7 J)."""
-        watched = self._branch_variables()
-        allowed = 0.5 * np.abs(z_b - z1)[watched]
-        for t in grid[(grid > t1) & (grid < t_b)]:
+        (within half the step's change of each coordinate and speed of the guess, as for the landing).
+        The observed coordinates and speeds must also stay within a tenth of their change over the step
+        of the cubic through the `regular` points (t, x, z) around the step (the last two before, the
+        landing and one after): next to the point this selection's speed formulas divide zero by zero,
+        and an output 0.2 ms from a fold of ten parallelograms carried 4e7 J (a nearly singular solve,
+        or a linear guess off the constraints, can lie anywhere). Such an output records the cubic's
+        values (`Rows.add`, observed given)."""
+        inside = grid[(grid > t1) & (grid < t_b)]
+        if inside.size:
+            watched = self._branch_variables()
+            allowed = 0.5 * np.abs(z_b - z1)[watched]
+            names = self.dae.observed_names
+            moving = np.array([n in self._branch_names() for n in names], dtype=bool)
+            ts, X, Z = regular
+            around = observe(self.dae, ts, X, Z, self.plan, self.p, np.tile(self.d, (ts.size, 1)))
+            curve = BarycentricInterpolator(ts, around, axis=0)
+            spread = 0.1 * np.abs(around[2] - around[1])[moving]
+            column = {n: k for k, n in enumerate(names)}
+            x_cols = [column[n] for n in self.dae.x_names]
+            z_cols = [column[n] for n in self.dae.z_names]
+        for t in inside:
             x, z_guess = along(t)
-            s = (t - t1) / (t_b - t1)
+            expected = curve(t)
             try:
                 z = solve_algebraic(self.dae, t, x, z_guess, self._u_at(t), self.p, self.d)
-                if not np.all(np.abs(z - z_guess)[watched] <= allowed + 1e-8 * (1 + np.abs(z_guess[watched]))):
-                    z = z1 + s * (z_b - z1)
+                if np.all(np.abs(z - z_guess)[watched] <= allowed + 1e-8 * (1 + np.abs(z_guess[watched]))):
+                    y = observe(self.dae, np.array([t]), x.reshape(1, -1), z.reshape(1, -1), self.plan, self.p,
+                                self.d.reshape(1, -1))[0]
+                    off = np.abs(y - expected)[moving] > spread + 1e-8 * (1 + np.abs(expected[moving]))
+                    if not np.any(off):
+                        self.x, self.z = x, z
+                        self._record(t)
+                        continue
             except MechnetError:
-                z = z1 + s * (z_b - z1)
-            self.x, self.z = x, z
-            self._record(t)
+                pass
+            expected[x_cols] = x
+            self.x, self.z = x, expected[z_cols]
+            self.rows.add_row(t, self.x, self.z, self.dae, self.d, observed=expected)
         self.x, self.z = x_b.copy(), z_b.copy()
         if np.any(grid == t_b):
             self._record(t_b)                  # a landing on an output time: nothing after records it

@@ -11,13 +11,13 @@ from ..caches import BUILD_LOCK
 from ..core.errors import InitializationError, MechnetError, ParameterError, UnknownNameError
 from ..core.arguments import flag, mapping, whole_number
 from ..core.declarations import finite_number, not_a_number
-from ..numeric import mapped_in
 from ..solver_output import captured
 from .branch import selections, state_names
 from .events import breakpoints, output_grid
 from .initialize import initialize
 from .inputs import plan_inputs
 from .result import Result, unknown_name
+from .rows import observe
 from .run import Run
 from .solvers import choose_method
 
@@ -128,11 +128,11 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     T = run.rows.times()
     stretches = list(run.rows.by_selection())
 
-    def observe() -> np.ndarray:
+    def observe_all() -> np.ndarray:
         values = np.empty((T.size, len(dae.observed_names)))
         k = 0
-        for sel, t, X, Z, D in stretches:     # rows integrated with the same selection, observed together
-            values[k: k + t.size] = _observe(sel, t, X, Z, plan, p, D)
+        for sel, t, X, Z, D, given in stretches:     # rows integrated with one selection, observed together
+            values[k: k + t.size] = observe(sel, t, X, Z, plan, p, D) if given is None else given
             k += t.size
         return values
 
@@ -144,15 +144,15 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
                                                  (final.x, final.z, run._u_at(T[-1]), p, final.d))).full().ravel()
         stats["invariants_at_end"] = float(np.max(np.abs(c))) if c.size else 0.0
     known = {}
-    if len(stretches) == 1:
+    if len(stretches) == 1 and stretches[0][5] is None:
         # one selection throughout: its states and algebraics are the run's own; every other name is
         # computed when first asked for (most callers read a few names of hundreds)
-        _, _, X, Z, _ = stretches[0]
+        _, _, X, Z, _, _ = stretches[0]
         known = {**{n: X[:, k] for k, n in enumerate(final_dae.x_names)},
                  **{n: Z[:, k] for k, n in enumerate(final_dae.z_names)}}
-        observed = observe
+        observed = observe_all
     else:
-        observed = observe()
+        observed = observe_all()
         column = {n: c for c, n in enumerate(dae.observed_names)}
         X = observed[:, [column[n] for n in final_dae.x_names]]     # (every selection's states are observed)
     result = Result(T, observed, dae.observed_names, dae.units, stats, X, np.zeros((T.size, 0)), final_dae.x_names,
@@ -239,17 +239,6 @@ def _resolve_params(dae, given: dict | None) -> np.ndarray:
         else:
             values[dae.p_names.index(name)] = float(value)
     return values
-
-
-def _observe(dae, T, X, Z, plan, p, D) -> np.ndarray:
-    """The observed names at the rows (T, X, Z), each with its own modes (a row of D)."""
-    n = T.size
-    if n == 0:
-        return np.zeros((0, len(dae.observed_names)))
-    U = plan.at(T)
-    observed = mapped_in(dae.info.setdefault("_observed_maps", {}), dae.observed, n)
-    y, = observed(T.reshape(1, -1), X.T, Z.T, U, np.tile(p.reshape(-1, 1), n), D.reshape(n, -1).T)
-    return y.T
 
 
 def _check_requirements(dae, t, init, plan, p, d, rtol, atol):

@@ -11,6 +11,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..numeric import mapped_in
+
 
 class Row(NamedTuple):
     t: float
@@ -26,6 +28,7 @@ class Block(NamedTuple):
     z: np.ndarray          # (n, algebraics)
     dae: object            # the selection that integrated these rows
     d: np.ndarray          # the modes, the same for every row of a block
+    observed: np.ndarray | None = None   # (n, observed names) given, not computed from x and z (`_bridge`)
 
 
 class Rows:
@@ -38,15 +41,17 @@ class Rows:
     def __len__(self) -> int:
         return self.count
 
-    def add(self, t, x, z, dae, d):
-        """Rows at the times t (n,) with the states x (n, states) and algebraics z (n, algebraics)."""
+    def add(self, t, x, z, dae, d, observed=None):
+        """Rows at the times t (n,) with the states x (n, states) and algebraics z (n, algebraics);
+        `observed` (n, observed names) when the selection's formulas cannot give them there."""
         if len(t):
-            self.blocks.append(Block(np.asarray(t, dtype=float), x, z, dae, d))
+            self.blocks.append(Block(np.asarray(t, dtype=float), x, z, dae, d, observed))
             self.count += len(t)
 
-    def add_row(self, t, x, z, dae, d):
+    def add_row(self, t, x, z, dae, d, observed=None):
         self.add(np.array([t], dtype=float), np.array(x, dtype=float).reshape(1, -1),
-                 np.array(z, dtype=float).reshape(1, -1), dae, d)
+                 np.array(z, dtype=float).reshape(1, -1), dae, d,
+                 None if observed is None else np.array(observed, dtype=float).reshape(1, -1))
 
     @property
     def first_time(self) -> float:
@@ -75,22 +80,34 @@ class Rows:
         return np.concatenate([b.t for b in self.blocks]) if self.blocks else np.zeros(0)
 
     def by_selection(self):
-        """(dae, t, x, z, d) for each stretch of rows integrated with one selection, d one row of modes
-        per row."""
+        """(dae, t, x, z, d, observed) for each stretch of rows integrated with one selection, d one row
+        of modes per row; `observed` None (computed from x and z) except for a block that gives them."""
         k = 0
         while k < len(self.blocks):
             j = k
-            while j + 1 < len(self.blocks) and self.blocks[j + 1].dae is self.blocks[k].dae:
+            while self.blocks[k].observed is None and j + 1 < len(self.blocks) \
+                    and self.blocks[j + 1].dae is self.blocks[k].dae and self.blocks[j + 1].observed is None:
                 j += 1
             part = self.blocks[k: j + 1]
             rows = sum(len(b.t) for b in part)
             d = np.broadcast_to(part[0].d, (rows, len(part[0].d))) if all(b.d is part[0].d for b in part) \
                 else np.concatenate([np.tile(np.asarray(b.d, dtype=float).reshape(1, -1), (len(b.t), 1)) for b in part])
             yield (part[0].dae, _joined([b.t for b in part]), _joined([b.x for b in part]),
-                   _joined([b.z for b in part]), d)
+                   _joined([b.z for b in part]), d, part[0].observed)
             k = j + 1
 
 
 def _joined(parts):
     """Arrays joined along their first axis (one part: itself, no copy)."""
     return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+
+def observe(dae, T, X, Z, plan, p, D) -> np.ndarray:
+    """The observed names at the rows (T, X, Z), each with its own modes (a row of D)."""
+    n = T.size
+    if n == 0:
+        return np.zeros((0, len(dae.observed_names)))
+    U = plan.at(T)
+    observed = mapped_in(dae.info.setdefault("_observed_maps", {}), dae.observed, n)
+    y, = observed(T.reshape(1, -1), X.T, Z.T, U, np.tile(p.reshape(-1, 1), n), D.reshape(n, -1).T)
+    return y.T
