@@ -325,9 +325,10 @@ def time_to(points, target):
         f = (math.log(target) - math.log(e_lo)) / (math.log(e_hi) - math.log(e_lo))
         return math.exp(math.log(t_lo) + f * (math.log(t_hi) - math.log(t_lo))), ""
     # not reached: extrapolate from the two most accurate runs (in time order, the error must fall)
-    best = sorted(pts, key=lambda p: p[1])[:2]
-    (t1, e1), (t2, e2) = sorted(best)
-    if len(pts) < 2 or e2 >= e1 or t2 <= t1:
+    if len(pts) < 2:
+        return None, "-"
+    (t1, e1), (t2, e2) = sorted(sorted(pts, key=lambda p: p[1])[:2])
+    if e2 >= e1 or t2 <= t1:
         return None, "-"
     if target < min(e1, e2) / EXTRAPOLATE:
         return None, "-"
