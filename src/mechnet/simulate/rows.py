@@ -67,7 +67,7 @@ class Rows:
         b = self.blocks.pop()
         self.count -= len(b.t)
         if len(b.t) > 1:
-            self.add(b.t[:-1], b.x[:-1], b.z[:-1], b.dae, b.d)
+            self.add(b.t[:-1], b.x[:-1], b.z[:-1], b.dae, b.d, None if b.observed is None else b.observed[:-1])
         self.add_row(b.t[-1], x, z, dae, b.d)
 
     def backwards(self):
