@@ -271,8 +271,9 @@ class ChangePoints:
             if c_c <= c_b or c_b < (0.5 * conds[-1] if kinematic else
                                     0.1 * max(conds[-1], RANK_LOSS) if unit_rows else 0.1 * conds[-1]):
                 continue                    # not past the point yet, or too near it for the integrator
-            regular = (np.array([ts[-2], t1, t_b, t_c]), np.array([xs[-2], x1, x_b, x_c]),
-                       np.array([zs[-2], z1, z_b, z_c]))
+            j = int(np.argmin(np.abs(ts[:-1] - (t1 - dt))))     # a history point about a step before
+            regular = (np.array([ts[j], t1, t_b, t_c]), np.array([xs[j], x1, x_b, x_c]),
+                       np.array([zs[j], z1, z_b, z_c]))
             self._bridge(grid, t1, x1, z1, t_b, x_b, z_b, self._along, regular)
             where = f"estimated at t = {t_star:.9g} s; " if t_star is not None else ""
             self.events.append(Event(float(t_b), "change point",
@@ -328,47 +329,76 @@ class ChangePoints:
     def _bridge(self, grid, t1, x1, z1, t_b, x_b, z_b, along, regular):
         """Output points inside the step over the change point: the states on the step's collocation
         polynomial (`along`), the algebraic variables solved there when Newton stays on the branch
-        (within half the step's change of each coordinate and speed of the guess, as for the landing).
-        The observed coordinates and speeds must also stay within a tenth of their change over the step
-        of the cubic through the `regular` points (t, x, z) around the step (the last two before, the
-        landing and one after): next to the point this selection's speed formulas divide zero by zero,
-        and an output 0.2 ms from a fold of ten parallelograms carried 4e7 J (a nearly singular solve,
-        or a linear guess off the constraints, can lie anywhere). Such an output records the cubic's
-        values (`Rows.add`, observed given)."""
+        (within half the step's change of each coordinate and speed of the guess, as for the landing)
+        and the observed coordinates and speeds stay near the cubic through the `regular` points around
+        the step (`_CurveAround`). Next to the point this selection's speed formulas divide zero by zero:
+        an output 0.2 ms from a fold of ten parallelograms, where Newton failed, carried 4e7 J. An
+        output that fails either test records the cubic's values (`Rows.add`, observed given)."""
         inside = grid[(grid > t1) & (grid < t_b)]
         if inside.size:
             watched = self._branch_variables()
             allowed = 0.5 * np.abs(z_b - z1)[watched]
-            names = self.dae.observed_names
-            moving = np.array([n in self._branch_names() for n in names], dtype=bool)
-            ts, X, Z = regular
-            around = observe(self.dae, ts, X, Z, self.plan, self.p, np.tile(self.d, (ts.size, 1)))
-            curve = BarycentricInterpolator(ts, around, axis=0)
-            spread = 0.1 * np.abs(around[2] - around[1])[moving]
-            column = {n: k for k, n in enumerate(names)}
-            x_cols = [column[n] for n in self.dae.x_names]
-            z_cols = [column[n] for n in self.dae.z_names]
+            around = _CurveAround(self, regular)
         for t in inside:
             x, z_guess = along(t)
-            expected = curve(t)
             try:
                 z = solve_algebraic(self.dae, t, x, z_guess, self._u_at(t), self.p, self.d)
-                if np.all(np.abs(z - z_guess)[watched] <= allowed + 1e-8 * (1 + np.abs(z_guess[watched]))):
-                    y = observe(self.dae, np.array([t]), x.reshape(1, -1), z.reshape(1, -1), self.plan, self.p,
-                                self.d.reshape(1, -1))[0]
-                    off = np.abs(y - expected)[moving] > spread + 1e-8 * (1 + np.abs(expected[moving]))
-                    if not np.any(off):
-                        self.x, self.z = x, z
-                        self._record(t)
-                        continue
+                if np.all(np.abs(z - z_guess)[watched] <= allowed + 1e-8 * (1 + np.abs(z_guess[watched]))) \
+                        and around.near(t, observe(self.dae, np.array([t]), x.reshape(1, -1), z.reshape(1, -1),
+                                                   self.plan, self.p, self.d.reshape(1, -1))[0]):
+                    self.x, self.z = x, z
+                    self._record(t)
+                    continue
             except MechnetError:
                 pass
-            expected[x_cols] = x
-            self.x, self.z = x, expected[z_cols]
-            self.rows.add_row(t, self.x, self.z, self.dae, self.d, observed=expected)
+            values = around.at(t, x)
+            self.x, self.z = x, values[around.z_cols]
+            self.rows.add_row(t, self.x, self.z, self.dae, self.d, observed=values)
         self.x, self.z = x_b.copy(), z_b.copy()
         if np.any(grid == t_b):
             self._record(t_b)                  # a landing on an output time: nothing after records it
+
+
+class _CurveAround:
+    """The observed values of a run's selection on the cubic through regular points (ts, X, Z) around a
+    step over a change point: the history point nearest a step before it, the step's start, the landing
+    and a point just after it."""
+
+    def __init__(self, run, regular):
+        ts, X, Z = regular
+        dae, self.run = run.dae, run
+        names = dae.observed_names
+        around = observe(dae, ts, X, Z, run.plan, run.p, np.tile(run.d, (ts.size, 1)))
+        self.curve = BarycentricInterpolator(ts, around, axis=0)
+        self.constant = np.all(around == around[1], axis=0)       # kept exactly (a cubic rounds them)
+        self.values = around[1]
+        column = {n: k for k, n in enumerate(names)}
+        self.x_cols = [column[n] for n in dae.x_names]
+        self.z_cols = [column[n] for n in dae.z_names]
+        self.given = {kind: [(k, column[n]) for k, n in enumerate(group) if n in column]
+                      for kind, group in (("u", dae.u_names), ("p", dae.p_names), ("d", dae.d_names))}
+        branch = run._branch_names() or set(dae.z_names)
+        states = set(dae.x_names)
+        # coordinates and speeds, not the states (the collocation polynomial gives those), each within a
+        # tenth of its range over the four points: a speed at its turning point changes little across
+        # the step and would reject a correct solution against its net change alone
+        self.moving = np.array([n in branch and n not in states for n in names], dtype=bool)
+        self.tolerance = 0.1 * np.ptp(around, axis=0)[self.moving]
+
+    def near(self, t, y) -> bool:
+        """Whether the observed values y at t keep their coordinates and speeds near the cubic."""
+        expected = self.curve(t)[self.moving]
+        return bool(np.all(np.abs(y[self.moving] - expected) <= self.tolerance + 1e-8 * (1 + np.abs(expected))))
+
+    def at(self, t, x) -> np.ndarray:
+        """Every observed value at t: the states x, the inputs, parameters and modes as they are, what stays
+        constant around the step as it is, the rest on the cubic."""
+        y = np.where(self.constant, self.values, self.curve(t))
+        y[self.x_cols] = x
+        for kind, values in (("u", self.run._u_at(t)), ("p", self.run.p), ("d", self.run.d)):
+            for k, col in self.given[kind]:
+                y[col] = values[k]
+        return y
 
 
 def _angles(dae) -> np.ndarray:
