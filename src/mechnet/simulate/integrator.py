@@ -138,10 +138,11 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
 
     final = run.rows.last if T.size else None
     final_dae = final.dae if T.size else dae
-    if T.size and final_dae.invariant_names:
+    solved = run.rows.last_solved if T.size else None    # (a row given next to a change point is off them)
+    if solved is not None and solved.dae.invariant_names:
         # how far the constraints (and |Q| = 1) drifted by the end, in the selection that ended the run
-        c = final_dae.invariants(float(T[-1]), *(ca.DM(np.asarray(v, dtype=float).ravel()) for v in
-                                                 (final.x, final.z, run._u_at(T[-1]), p, final.d))).full().ravel()
+        c = solved.dae.invariants(solved.t, *(ca.DM(np.asarray(v, dtype=float).ravel()) for v in
+                                              (solved.x, solved.z, run._u_at(solved.t), p, solved.d))).full().ravel()
         stats["invariants_at_end"] = float(np.max(np.abs(c))) if c.size else 0.0
     known = {}
     if len(stretches) == 1 and stretches[0][5] is None:

@@ -62,6 +62,12 @@ class Rows:
         b = self.blocks[-1]
         return Row(float(b.t[-1]), b.x[-1], b.z[-1], b.dae, b.d)
 
+    @property
+    def last_solved(self) -> Row | None:
+        """The last row whose values come from its own x and z (not given next to a change point)."""
+        b = next((b for b in reversed(self.blocks) if b.observed is None), None)
+        return None if b is None else Row(float(b.t[-1]), b.x[-1], b.z[-1], b.dae, b.d)
+
     def replace_last(self, x, z, dae):
         """The last row holds (x, z) of selection `dae` instead (a re-selection at a recorded time)."""
         b = self.blocks.pop()

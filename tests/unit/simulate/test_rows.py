@@ -30,3 +30,12 @@ def test_replacing_the_last_row_keeps_the_given_values_of_the_rows_before():
     assert [(p[0] is a, p[1].tolist(), None if p[5] is None else p[5].tolist()) for p in parts] == [
         (True, [0.0], [[1.0]]), (False, [1.0], None)]
     assert rows.last.x.tolist() == [5.0] and len(rows) == 2
+
+
+def test_the_last_solved_row_skips_rows_with_given_values():
+    a, d = object(), np.zeros(0)
+    rows = Rows()
+    assert rows.last_solved is None
+    rows.add_row(0.0, [1.0], [2.0], a, d)
+    rows.add_row(1.0, [3.0], [4.0], a, d, observed=[3.0, 4.0])
+    assert rows.last.t == 1.0 and rows.last_solved.t == 0.0 and rows.last_solved.z.tolist() == [2.0]
