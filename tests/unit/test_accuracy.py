@@ -33,11 +33,13 @@ def chain(n=5):
 
 
 def _four_decades(result, method):
-    rows = sorted((t.setting, t.error, t.time) for t in result.trials if t.method == method and t.status == "ok")
+    rows = sorted((t.setting, t.error, t.evaluations) for t in result.trials if t.method == method and t.status == "ok")
     errors = {tol: err for tol, err, _ in rows}
     assert errors[1e-4] / errors[1e-10] >= 1e4, errors
-    times = {tol: t for tol, _, t in rows}
-    assert times[1e-10] > times[1e-4]
+    # the cost grows: counted in right-hand-side evaluations (wall time on a shared machine flakes: once
+    # 11.0 ms at 1e-10 against 11.5 ms at 1e-4 with two test runs side by side)
+    work = {tol: n for tol, _, n in rows}
+    assert work[1e-10] > work[1e-4], work
     return errors
 
 

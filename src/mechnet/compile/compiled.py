@@ -118,6 +118,14 @@ class CompiledModel:
         from ..simulate.integrator import simulate
         return simulate(self, t_end, **kwargs)
 
+    def prepare(self, t_end: float, **settings):
+        """`simulate(t_end, **settings)` as a function of `params`, `start` and `guess`, for many calls:
+        `run = cm.prepare(2.0, n_out=101, rtol=1e-8)`, then `run(params={...})`. After the first call, a
+        run that is one integrator call skips simulate's fixed cost; any other runs `simulate` in full
+        (`run.plain` says which; `simulate/prepared.py`)."""
+        from ..simulate.prepared import PreparedRun
+        return PreparedRun(self, t_end, settings)
+
     def summary(self) -> str:
         from ..simulate.solvers import choose_method
         d = self.dae

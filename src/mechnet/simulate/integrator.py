@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import time as _time
 import warnings
+from contextvars import ContextVar
 
 import casadi as ca
 import numpy as np
@@ -23,6 +24,9 @@ from .solvers import choose_method
 
 RTOL_RANGE = (1e-14, 1.0)        # a relative error per step: 1 or more lets a step be wrong by its whole
                                 # size; below 1e-14 round-off in double precision cannot meet it
+
+
+TEMPLATE: ContextVar = ContextVar("template", default=None)   # a dict `prepared.py` asks a run to fill
 
 
 class IntegrationWarning(UserWarning):
@@ -97,6 +101,26 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
         grid[-1] = t_end                                                          # without its 10 µs
     plan = plan_inputs(dae, inputs, t_start, t_end, max(grid.size, 2001))
     p = _resolve_params(dae, params)
+    d, starts = start_values(dae, start, guess, continue_from)
+
+    wall = _time.perf_counter()
+    init = initialize(dae, t_start, plan.constant, p, starts, guess or {}, steady_state, d)
+    _check_requirements(dae, t_start, init, plan, p, d, rtol, atol)
+    events = breakpoints((*dae.time_events, *plan.time_events), t_start, t_end)
+    grid = output_grid(grid, events)
+    run = Run(cm, dae, choice, rtol, atol, max_steps, plan, p, d, init)
+    with captured() as messages:             # SUNDIALS's text stays with this run (solver_output.py)
+        run.integrate(grid, events, progress)
+    sink = TEMPLATE.get()
+    if sink is not None:                       # `prepared.py` asked what this run was
+        sink.update(dae=dae, grid=grid, plan=plan, d=d, init=init, choice=choice, events=events, run=run,
+                    settings=(t_start, rtol, atol, max_steps, steady_state))
+    return assemble(cm, dae, run, wall, messages, init, plan, p)
+
+
+def start_values(dae, start: dict | None, guess: dict | None, continue_from=None) -> tuple[np.ndarray, dict]:
+    """(modes, start values) of a run: the components' starts (or a continued run's final state and
+    modes) with `start` over them; every name of `start` and `guess` checked."""
     d = np.array(dae.d_value, dtype=float)
     if continue_from is not None:              # a continued run goes on in the modes it ended in
         d = np.array([continue_from.final_values.get(n, v) for n, v in zip(dae.d_names, d)], dtype=float)
@@ -112,15 +136,11 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
         if name not in dae.observed_names:
             raise unknown_name(name, dae.observed_names, "guess for")
         _check_value(value, f"guess {name}")
+    return d, starts
 
-    wall = _time.perf_counter()
-    init = initialize(dae, t_start, plan.constant, p, starts, guess or {}, steady_state, d)
-    _check_requirements(dae, t_start, init, plan, p, d, rtol, atol)
-    events = breakpoints((*dae.time_events, *plan.time_events), t_start, t_end)
-    grid = output_grid(grid, events)
-    run = Run(cm, dae, choice, rtol, atol, max_steps, plan, p, d, init)
-    with captured() as messages:             # SUNDIALS's text stays with this run (solver_output.py)
-        run.integrate(grid, events, progress)
+
+def assemble(cm, dae, run, wall, messages, init, plan, p) -> Result:
+    """The Result of a finished run (`run`: its rows, events, failure and statistics)."""
     stats = run.stats
     stats["wall_time"] = _time.perf_counter() - wall
     stats["plugin"] = run.choice.plugin
@@ -163,7 +183,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
         run.failure.result = result
         said = f"; SUNDIALS said {messages[-1]!r} (all {len(messages)} messages in res.stats['solver_messages'])" \
             if messages else ""
-        warnings.warn(str(run.failure) + said, IntegrationWarning, stacklevel=3)
+        warnings.warn(str(run.failure) + said, IntegrationWarning, stacklevel=4)
     return result
 
 

@@ -96,7 +96,7 @@ class Rows:
                 j += 1
             part = self.blocks[k: j + 1]
             rows = sum(len(b.t) for b in part)
-            d = np.broadcast_to(part[0].d, (rows, len(part[0].d))) if all(b.d is part[0].d for b in part) \
+            d = np.repeat(np.reshape(part[0].d, (1, -1)), rows, axis=0) if all(b.d is part[0].d for b in part) \
                 else np.concatenate([np.tile(np.asarray(b.d, dtype=float).reshape(1, -1), (len(b.t), 1)) for b in part])
             yield (part[0].dae, _joined([b.t for b in part]), _joined([b.x for b in part]),
                    _joined([b.z for b in part]), d, part[0].observed)

@@ -1,0 +1,157 @@
+"""`cm.prepare`: one simulation's settings fixed, run again and again (an optimiser's or a study's calls
+with new parameters or start values) without `cm.simulate`'s fixed cost.
+
+`cm.simulate` spends about 0.3 ms per call beyond the integrator on a small model (docs/benchmarks.md,
+"fixed cost"): checking arguments, planning inputs and output times, choosing the method, setting up the
+run loop. A prepared run does that once, in its first call, which is `cm.simulate` itself. When that
+run was one integrator call over the whole grid — no event of any kind, no selection monitor, no state
+wound in whole turns, no quaternion — later calls repeat just that call: the start (kept while the
+parameters and start values stay the same), one integrator call from it, and the Result. Wherever the
+run loop would act (the call fails, or any of the above), the call is `cm.simulate` with the same
+arguments. Either way a call returns the numbers `cm.simulate` returns.
+"""
+from __future__ import annotations
+
+import inspect
+import time as _time
+
+import numpy as np
+
+from ..core.arguments import mapping
+from ..core.errors import MechnetError
+from ..solver_output import captured
+from .integrator import TEMPLATE, _check_requirements, _resolve_params, assemble, simulate, start_values
+from .initialize import initialize
+from .rows import Rows
+from .run import STIFF_MIN_STEPS, STIFF_SHARE
+from .solvers import SolverFailure, call
+from .winding import whole_turns
+
+
+PER_CALL = ("params", "start", "guess", "continue_from")
+
+
+class PreparedRun:
+    """`cm.simulate(t_end, **settings)` as a function of the parameters and start values (`cm.prepare`)."""
+
+    def __init__(self, cm, t_end: float, settings: dict):
+        known = [n for n in inspect.signature(simulate).parameters if n not in ("cm", "t_end")]
+        for name in settings:
+            if name in PER_CALL:
+                raise MechnetError(f"prepare(..., {name}=...): {name} changes per call; give it to the prepared "
+                                   f"run: run = cm.prepare(t_end, ...); run({name}=...)")
+            if name not in known:
+                settings_ = ", ".join(n for n in known if n not in PER_CALL)
+                raise MechnetError(f"prepare(..., {name}=...): no such setting of cm.simulate; "
+                                   f"the settings are {settings_}")
+        self.cm, self.t_end, self.settings = cm, t_end, settings
+        self._plain = None                  # what a plain run repeats, once a first call has shown one
+        self._decided = False
+
+    def __getstate__(self):                 # in another process the first call decides again
+        return {"cm": self.cm, "t_end": self.t_end, "settings": self.settings, "_plain": None, "_decided": False}
+
+    def __call__(self, params: dict | None = None, start: dict | None = None, guess: dict | None = None):
+        """The Result of `cm.simulate(t_end, params=params, start=start, guess=guess, **settings)`."""
+        if self._plain is not None:
+            result = self._plain.run(params, start, guess)
+            if result is not None:
+                return result
+        if self._decided:
+            return simulate(self.cm, self.t_end, params=params, start=start, guess=guess, **self.settings)
+        template = {}
+        token = TEMPLATE.set(template)
+        try:
+            result = simulate(self.cm, self.t_end, params=params, start=start, guess=guess, **self.settings)
+        finally:
+            TEMPLATE.reset(token)
+        self._plain = PlainRun.from_template(self.cm, template)
+        self._decided = True
+        return result
+
+    @property
+    def plain(self) -> bool:
+        """Whether calls after the first repeat one integrator call (None before the first call)."""
+        return None if not self._decided else self._plain is not None
+
+
+class PlainRun:
+    """The one integrator call a plain run made, ready to repeat from other parameters and starts."""
+
+    def __init__(self, cm, template):
+        self.cm = cm
+        self.dae, self.grid, self.plan = template["dae"], template["grid"], template["plan"]
+        self.d, self.choice = template["d"], template["choice"]
+        self.t_start, self.rtol, self.atol, self.max_steps, self.steady_state = template["settings"]
+        run = template["run"]
+        self.integrators = run.integrators      # (its integrators live in each thread's cache: thread-safe)
+        self.points = tuple(np.asarray(self.grid, dtype=float).tolist())
+        self.xn, self.zn = run.xn, run.zn
+        self.stats = {k: v for k, v in run.stats.items() if k in ("method", "method_reason", "selection")}
+        # (parameters and starts, (the start found, the call's parameter vector and scaled start)): one
+        # reference, swapped whole (threads share a prepared run)
+        self._start = (None, (None, None, None, None))
+
+    @classmethod
+    def from_template(cls, cm, template) -> PlainRun | None:
+        """The plain run the first call made, or None when its run loop did more than one call."""
+        run = template.get("run")
+        if run is None:
+            return None
+        dae = template["dae"]
+        px, pz = whole_turns(dae)
+        plain = (run.failure is None and not run.events and not template["events"] and run.monitor is None
+                 and not dae.zero_labels and not run.quaternions and not px.any() and not pz.any()
+                 and not run.plan.varying and run.stats["segments"] == 1 and dae.x.numel() > 0
+                 and len(run.rows.blocks) == 2 and run.choice == template["choice"])
+        return cls(cm, template) if plain else None
+
+    def run(self, params, start, guess):
+        """The Result, or None when the run loop is needed (the caller then simulates in full)."""
+        dae, plan = self.dae, self.plan
+        params, start, guess = (mapping(params, "params"), mapping(start, "start"), mapping(guess, "guess"))
+        p = _resolve_params(dae, params)
+        d, starts = start_values(dae, start, guess)
+        if d.tobytes() != self.d.tobytes():
+            return None                          # other modes: the run loop decides again
+        wall = _time.perf_counter()
+        key = (p.tobytes(), tuple(sorted(starts.items())), tuple(sorted((guess or {}).items())))
+        known, (init, pvec, xs, zs) = self._start
+        t0, h = self.grid[0], self.grid[-1] - self.grid[0]
+        if key != known:
+            init = initialize(dae, self.t_start, plan.constant, p, starts, guess or {}, self.steady_state, d)
+            _check_requirements(dae, self.t_start, init, plan, p, d, self.rtol, self.atol)
+            pvec = np.concatenate([plan.constant, p, d, [t0, h], plan.table_data(t0)])
+            xs = init.x / self.xn
+            zs = init.z / self.zn if self.zn.size else np.zeros(0)
+            self._start = (key, (init, pvec, xs, zs))
+        with captured() as messages:
+            try:
+                stats, out = call(self.integrators.get_real(self.points), xs, zs, pvec)
+            except SolverFailure:
+                return None
+        if self.choice.fallback is not None:
+            steps, failures = int(stats.get("nsteps", 0)), int(stats.get("nncfails", 0))
+            if steps >= STIFF_MIN_STEPS and failures >= STIFF_SHARE * steps:
+                return None                      # stiff under these parameters: the run loop switches
+        xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn
+        zf = np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn if self.zn.size \
+            else np.zeros((xf.shape[0], 0))
+        outcome = _Outcome(self, d, stats, h)
+        outcome.rows.add_row(t0, init.x, init.z, dae, d)
+        outcome.rows.add(self.grid[1:], xf, zf, dae, d)
+        return assemble(self.cm, dae, outcome, wall, messages, init, plan, p)
+
+
+class _Outcome:
+    """What `assemble` reads of a run, for the one call of a plain run."""
+
+    def __init__(self, plain: PlainRun, d, stats, h):
+        self.rows, self.events, self.failure, self.choice = Rows(), [], None, plain.choice
+        self.plan = plain.plan
+        self.stats = {"nsteps": int(stats.get("nsteps", 0)), "nfevals": int(stats.get("nfevals", 0)),
+                      "netfails": int(stats.get("netfails", 0)), "nncfails": int(stats.get("nncfails", 0)),
+                      "segments": 1, **plain.stats, "hlast": float(stats.get("hlast", float("nan"))) * h}
+
+    def _u_at(self, t):
+        return self.plan.at(t)[:, 0]
