@@ -25,13 +25,28 @@ def oscillator():
     return models.oscillator(J=0.1, c=mn.tunable(100.0), phi0=0.5).compile()
 
 
-def test_a_plain_run_repeats_its_integrator_call_with_simulate_s_numbers(oscillator):
+@pytest.fixture
+def full_runs(monkeypatch):
+    """How many calls of prepared runs went through cm.simulate in full."""
+    from mechnet.simulate import prepared
+    count, simulate = [0], prepared.simulate
+
+    def counted(*args, **kwargs):
+        count[0] += 1
+        return simulate(*args, **kwargs)
+    monkeypatch.setattr(prepared, "simulate", counted)
+    return count
+
+
+def test_a_plain_run_repeats_its_integrator_call_with_simulate_s_numbers(oscillator, full_runs):
     # Inertia J = 0.1 kg·m² on a torsional spring c (tunable), from φ0 (start value) at rest: φ = φ0 cos(√(c/J) t).
     # Pass criteria: every call equals cm.simulate with the same arguments bit for bit; the angle within
     # 10·(rtol·0.5 + atol) · (ω·2 s) of the closed form over 2 s (101 outputs; the global error of a
-    # controlled run grows with the periods: at most ω t / 2π ≈ 10 of them here).
+    # controlled run grows with the periods: at most ω t / 2π ≈ 10 of them here); only the first call
+    # runs cm.simulate in full; each result's lists are its own.
     run = oscillator.prepare(2.0, n_out=101, rtol=RTOL, atol=ATOL)
     assert run.plain is None
+    results = []
     for c, phi0 in ((100.0, 0.5), (100.0, 0.5), (400.0, 0.5), (400.0, 0.2), (25.0, -1.0)):
         res = run(params={"spring.c": c}, start={"j1.phi": phi0})
         same(res, oscillator.simulate(2.0, n_out=101, rtol=RTOL, atol=ATOL, params={"spring.c": c},
@@ -39,17 +54,30 @@ def test_a_plain_run_repeats_its_integrator_call_with_simulate_s_numbers(oscilla
         w = np.sqrt(c / 0.1)
         bound = 10 * (RTOL * abs(phi0) + ATOL) * w * 2.0
         assert np.max(np.abs(res["j1.phi"] - phi0 * np.cos(w * res.t))) <= bound, c
-    assert run.plain is True
+        results.append(res)
+    assert run.plain is True and full_runs[0] == 1
+    assert results[1].initial["fixed"] is not results[0].initial["fixed"]
 
 
-def test_a_run_with_events_stays_with_simulate(oscillator):
+def test_settings_are_kept_as_they_were_given(oscillator, full_runs):
+    # An output grid changed by its owner after the first call changes nothing (the run keeps its copy).
+    # Pass criteria: the second call equals cm.simulate on the original grid bit for bit, by the plain path.
+    t_out = np.linspace(0.0, 1.0, 11)
+    run = oscillator.prepare(1.0, t_out=t_out, rtol=RTOL, atol=ATOL)
+    run()
+    t_out[5] = 0.55
+    same(run(), oscillator.simulate(1.0, t_out=np.linspace(0.0, 1.0, 11), rtol=RTOL, atol=ATOL))
+    assert full_runs[0] == 1
+
+
+def test_a_run_with_events_stays_with_simulate(full_runs):
     # A ball dropped from 1 m onto a floor (e = 0.8): its run stops at each impact, so every call is
     # cm.simulate in full. Pass criteria: plain is False; both calls equal cm.simulate bit for bit; the first
     # impact at √(2h/g) within 10·rtol·t.
     cm = models.bouncing_ball(h0=1.0, e=0.8).compile()
     run = cm.prepare(1.0, n_out=51, rtol=RTOL, atol=ATOL)
     first, second = run(), run()
-    assert run.plain is False
+    assert run.plain is False and full_runs[0] == 2
     reference = cm.simulate(1.0, n_out=51, rtol=RTOL, atol=ATOL)
     same(first, reference)
     same(second, reference)
@@ -75,7 +103,7 @@ def test_a_failed_call_returns_simulate_s_partial_result(oscillator):
     same(run(), oscillator.simulate(2.0, n_out=11, rtol=RTOL, atol=ATOL, max_steps=300))
 
 
-def test_threads_and_processes_get_their_own_calls(oscillator):
+def test_threads_and_processes_get_their_own_calls(oscillator, full_runs):
     # Four threads call one prepared run with four spring rates at once, and a pickled copy (another process's
     # view) runs too. Pass criteria: each result equals cm.simulate with its own rate bit for bit.
     run = oscillator.prepare(1.0, n_out=21, rtol=RTOL, atol=ATOL)
@@ -91,6 +119,7 @@ def test_threads_and_processes_get_their_own_calls(oscillator):
         t.start()
     for t in threads:
         t.join()
+    assert full_runs[0] == 1
     for c in rates:
         same(results[c], oscillator.simulate(1.0, n_out=21, rtol=RTOL, atol=ATOL, params={"spring.c": c}))
     copy = pickle.loads(pickle.dumps(run))
@@ -101,6 +130,8 @@ def test_threads_and_processes_get_their_own_calls(oscillator):
 def test_prepare_names_a_wrong_setting(oscillator):
     with pytest.raises(mn.MechnetError, match=r"prepare\(\.\.\., params=\.\.\.\): params changes per call"):
         oscillator.prepare(1.0, params={"spring.c": 1.0})
+    with pytest.raises(mn.MechnetError, match=r"prepare\(\.\.\., continue_from=\.\.\.\).*cm.simulate"):
+        oscillator.prepare(1.0, continue_from=None)
     with pytest.raises(mn.MechnetError, match=r"prepare\(\.\.\., n_outs=\.\.\.\): no such setting.*n_out"):
         oscillator.prepare(1.0, n_outs=11)
     run = oscillator.prepare(1.0, rtol=-1.0)

@@ -178,7 +178,8 @@ def assemble(cm, dae, run, wall, messages, init, plan, p) -> Result:
         X = observed[:, [column[n] for n in final_dae.x_names]]     # (every selection's states are observed)
     result = Result(T, observed, dae.observed_names, dae.units, stats, X, np.zeros((T.size, 0)), final_dae.x_names,
                     events=run.events, failure=run.failure, known=known, title=cm.name,
-                    initial={"fixed": init.fixed, "free_states": init.free_states, "residual": init.residual})
+                    initial={"fixed": list(init.fixed), "free_states": list(init.free_states),
+                             "residual": init.residual})
     if run.failure is not None:
         run.failure.result = result
         said = f"; SUNDIALS said {messages[-1]!r} (all {len(messages)} messages in res.stats['solver_messages'])" \

@@ -12,6 +12,7 @@ arguments. Either way a call returns the numbers `cm.simulate` returns.
 """
 from __future__ import annotations
 
+import copy
 import inspect
 import time as _time
 
@@ -28,23 +29,27 @@ from .solvers import SolverFailure, call
 from .winding import whole_turns
 
 
-PER_CALL = ("params", "start", "guess", "continue_from")
+PER_CALL = ("params", "start", "guess", "continue_from")      # (continue_from: not at all)
+SETTINGS = tuple(n for n in inspect.signature(simulate).parameters if n not in ("cm", "t_end"))
 
 
 class PreparedRun:
     """`cm.simulate(t_end, **settings)` as a function of the parameters and start values (`cm.prepare`)."""
 
     def __init__(self, cm, t_end: float, settings: dict):
-        known = [n for n in inspect.signature(simulate).parameters if n not in ("cm", "t_end")]
         for name in settings:
+            if name == "continue_from":
+                raise MechnetError("prepare(..., continue_from=...): a prepared run starts where its settings say; "
+                                   "continue a run with cm.simulate(t_end, continue_from=res)")
             if name in PER_CALL:
                 raise MechnetError(f"prepare(..., {name}=...): {name} changes per call; give it to the prepared "
                                    f"run: run = cm.prepare(t_end, ...); run({name}=...)")
-            if name not in known:
-                settings_ = ", ".join(n for n in known if n not in PER_CALL)
+            if name not in SETTINGS:
+                settings_ = ", ".join(n for n in SETTINGS if n not in PER_CALL)
                 raise MechnetError(f"prepare(..., {name}=...): no such setting of cm.simulate; "
                                    f"the settings are {settings_}")
-        self.cm, self.t_end, self.settings = cm, t_end, settings
+        # the settings as they are now: a list or table changed later must not reach only some calls
+        self.cm, self.t_end, self.settings = cm, t_end, {k: _copied(v) for k, v in settings.items()}
         self._plain = None                  # what a plain run repeats, once a first call has shown one
         self._decided = False
 
@@ -65,14 +70,23 @@ class PreparedRun:
             result = simulate(self.cm, self.t_end, params=params, start=start, guess=guess, **self.settings)
         finally:
             TEMPLATE.reset(token)
-        self._plain = PlainRun.from_template(self.cm, template)
-        self._decided = True
+        if result.failure is None:             # (a failed first call says nothing of the others)
+            self._plain = PlainRun.from_template(self.cm, template)
+            self._decided = True
         return result
 
     @property
     def plain(self) -> bool:
-        """Whether calls after the first repeat one integrator call (None before the first call)."""
+        """Whether later calls repeat one integrator call (None until a first call succeeded)."""
         return None if not self._decided else self._plain is not None
+
+
+def _copied(value):
+    """A setting as it is now (a function or an object that cannot be copied: itself)."""
+    try:
+        return value if callable(value) else copy.deepcopy(value)
+    except Exception:                          # noqa: BLE001 - whatever the object refuses, keep it
+        return value
 
 
 class PlainRun:
@@ -80,7 +94,8 @@ class PlainRun:
 
     def __init__(self, cm, template):
         self.cm = cm
-        self.dae, self.grid, self.plan = template["dae"], template["grid"], template["plan"]
+        self.dae, self.plan = template["dae"], template["plan"]
+        self.grid = np.array(template["grid"], dtype=float)     # (a t_out array of the caller's, copied)
         self.d, self.choice = template["d"], template["choice"]
         self.t_start, self.rtol, self.atol, self.max_steps, self.steady_state = template["settings"]
         run = template["run"]
@@ -103,13 +118,15 @@ class PlainRun:
         plain = (run.failure is None and not run.events and not template["events"] and run.monitor is None
                  and not dae.zero_labels and not run.quaternions and not px.any() and not pz.any()
                  and not run.plan.varying and run.stats["segments"] == 1 and dae.x.numel() > 0
-                 and len(run.rows.blocks) == 2 and run.choice == template["choice"])
+                 and len(run.rows.blocks) == 2 and run.choice == template["choice"]
+                 and "selection" not in run.stats)     # (no branch verdict, which parameters could change)
         return cls(cm, template) if plain else None
 
     def run(self, params, start, guess):
         """The Result, or None when the run loop is needed (the caller then simulates in full)."""
         dae, plan = self.dae, self.plan
-        params, start, guess = (mapping(params, "params"), mapping(start, "start"), mapping(guess, "guess"))
+        params, start = mapping(params, "simulate(params=...)"), mapping(start, "simulate(start=...)")
+        guess = mapping(guess, "simulate(guess=...)")
         p = _resolve_params(dae, params)
         d, starts = start_values(dae, start, guess)
         if d.tobytes() != self.d.tobytes():
