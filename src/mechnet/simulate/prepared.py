@@ -4,11 +4,12 @@ with new parameters or start values) without `cm.simulate`'s fixed cost.
 `cm.simulate` spends about 0.3 ms per call beyond the integrator on a small model (docs/benchmarks.md,
 "fixed cost"): checking arguments, planning inputs and output times, choosing the method, setting up the
 run loop. A prepared run does that once, in its first call, which is `cm.simulate` itself. When that
-run was one integrator call over the whole grid — no event of any kind, no selection monitor, no state
-wound in whole turns, no quaternion — later calls repeat just that call: the start (kept while the
-parameters and start values stay the same), one integrator call from it, and the Result. Wherever the
-run loop would act (the call fails, or any of the above), the call is `cm.simulate` with the same
-arguments. Either way a call returns the numbers `cm.simulate` returns.
+run was one integrator call over the whole grid — no event of any kind, no selection monitor, no
+quaternion, no angle winding further than one call may take it — later calls repeat just that call:
+the start (kept while the parameters and start values stay the same), one integrator call from it,
+and the Result. Wherever the run loop would act (the call fails, turns stiff, or any of the above),
+the call is `cm.simulate` with the same arguments. Either way a call returns the numbers
+`cm.simulate` returns.
 """
 from __future__ import annotations
 
@@ -26,7 +27,7 @@ from .initialize import initialize
 from .rows import Rows
 from .run import STIFF_MIN_STEPS, STIFF_SHARE
 from .solvers import SolverFailure, call
-from .winding import whole_turns
+from .winding import turns_of, whole_turns, winding_reach
 
 
 PER_CALL = ("params", "start", "guess", "continue_from")      # (continue_from: not at all)
@@ -103,9 +104,9 @@ class PlainRun:
         self.points = tuple(np.asarray(self.grid, dtype=float).tolist())
         self.xn, self.zn = run.xn, run.zn
         self.stats = {k: v for k, v in run.stats.items() if k in ("method", "method_reason", "selection")}
-        # (parameters and starts, (the start found, the call's parameter vector and scaled start)): one
+        # (parameters and starts, (the start found, the call's parameter vector, scaled start, whole turns)): one
         # reference, swapped whole (threads share a prepared run)
-        self._start = (None, (None, None, None, None))
+        self._start = (None, (None,) * 6)
 
     @classmethod
     def from_template(cls, cm, template) -> PlainRun | None:
@@ -114,13 +115,14 @@ class PlainRun:
         if run is None:
             return None
         dae = template["dae"]
-        px, pz = whole_turns(dae)
         plain = (run.failure is None and not run.events and not template["events"] and run.monitor is None
-                 and not dae.zero_labels and not run.quaternions and not px.any() and not pz.any()
-                 and not run.plan.varying and run.stats["segments"] == 1 and dae.x.numel() > 0
+                 and not dae.zero_labels and not run.quaternions and not run.plan.varying and run.stats["segments"] == 1 and dae.x.numel() > 0
                  and len(run.rows.blocks) == 2 and run.choice == template["choice"]
                  and "selection" not in run.stats)     # (no branch verdict, which parameters could change)
         return cls(cm, template) if plain else None
+
+    def _u_at(self, t):
+        return self.plan.at(t)[:, 0]
 
     def run(self, params, start, guess):
         """The Result, or None when the run loop is needed (the caller then simulates in full)."""
@@ -133,15 +135,19 @@ class PlainRun:
             return None                          # other modes: the run loop decides again
         wall = _time.perf_counter()
         key = (p.tobytes(), tuple(sorted(starts.items())), tuple(sorted((guess or {}).items())))
-        known, (init, pvec, xs, zs) = self._start
+        known, (init, pvec, xs, zs, ox, oz) = self._start
         t0, h = self.grid[0], self.grid[-1] - self.grid[0]
         if key != known:
             init = initialize(dae, self.t_start, plan.constant, p, starts, guess or {}, self.steady_state, d)
             _check_requirements(dae, self.t_start, init, plan, p, d, self.rtol, self.atol)
+            if t0 + winding_reach(dae, t0, init.x, init.z, self._u_at, p, d) < self.grid[-1]:
+                return None                      # a coordinate winds too far for one call: the run loop splits it
+            px, pz = whole_turns(dae)            # (the whole turns are left out of the call, as `Run._attempt` does)
+            ox, oz = turns_of(init.x, px), turns_of(init.z, pz)
             pvec = np.concatenate([plan.constant, p, d, [t0, h], plan.table_data(t0)])
-            xs = init.x / self.xn
-            zs = init.z / self.zn if self.zn.size else np.zeros(0)
-            self._start = (key, (init, pvec, xs, zs))
+            xs = (init.x - ox) / self.xn
+            zs = (init.z - oz) / self.zn if self.zn.size else np.zeros(0)
+            self._start = (key, (init, pvec, xs, zs, ox, oz))
         with captured() as messages:
             try:
                 stats, out = call(self.integrators.get_real(self.points), xs, zs, pvec)
@@ -151,8 +157,8 @@ class PlainRun:
             steps, failures = int(stats.get("nsteps", 0)), int(stats.get("nncfails", 0))
             if steps >= STIFF_MIN_STEPS and failures >= STIFF_SHARE * steps:
                 return None                      # stiff under these parameters: the run loop switches
-        xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn
-        zf = np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn if self.zn.size \
+        xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn + ox
+        zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn + oz) if self.zn.size \
             else np.zeros((xf.shape[0], 0))
         outcome = _Outcome(self, d, stats, h)
         outcome.rows.add_row(t0, init.x, init.z, dae, d)

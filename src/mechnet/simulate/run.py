@@ -27,7 +27,7 @@ from .reselection import Reselection, SelectionMonitor
 from .rows import Rows
 from .solvers import Integrators, MethodChoice, call, solver_message
 from .state_events import StateEvents
-from .winding import TURN_LIMIT, WINDING_POINTS, turns_of, whole_turns
+from .winding import WINDING_POINTS, turns_of, whole_turns, winding_reach
 
 PROGRESS_CHUNKS = 20
 PROGRESS_MIN_POINTS = 1000
@@ -173,15 +173,8 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         return turns_of(x, px), turns_of(z, pz)
 
     def _winding_reach(self, t) -> float:
-        """How long (s) the next integrator call from (t, self.x, self.z) may last: until a periodic
-        state winds TURN_LIMIT at its present rate (inf when none winds). Within a call the angle grows
-        again from its turn-reduced start, and with it the round-off in everything computed from it."""
-        px, _ = whole_turns(self.dae)
-        if not px.any():
-            return float("inf")
-        rate = np.asarray(self.dae.ode(t, self.x, self.z, self._u_at(t), self.p, self.d), dtype=float).ravel()
-        wind = float(np.max(np.abs(rate[px > 0])))
-        return TURN_LIMIT / wind if np.isfinite(wind) and wind > 0 else float("inf")
+        """How long (s) the next integrator call from (t, self.x, self.z) may last (`winding_reach`)."""
+        return winding_reach(self.dae, t, self.x, self.z, self._u_at, self.p, self.d)
 
     def _inputs_at(self, ts):
         """The inputs at each of the times ts, one column per time."""

@@ -5,7 +5,7 @@ Why: a double holds an angle of 6000 rad (1000 turns) to 1e-12 rad only, and the
 it to ~1e-9 N (slider-crank at 3000 rpm); at a dead centre, where a pin force is only the weight, that
 noise exceeds the error test of rtol = 1e-10 and IDAS fails. The simulator integrates such coordinates
 without their whole turns (`turns_of`), which the equations cannot tell apart, adds them back to the
-outputs, and ends each call before a coordinate winds more than TURN_LIMIT (`run.Run._winding_reach`).
+outputs, and ends each call before a coordinate winds more than TURN_LIMIT (`winding_reach`).
 
 Which coordinates qualify is decided on the structure of `ode` and `alg`, once per compiled selection
 (`whole_turns`), not on sampled values: a sample misses an end stop `c·fmax(φ − 10, 0)` near [−π, π]
@@ -54,6 +54,19 @@ def _whole_turns(dae) -> tuple[np.ndarray, np.ndarray]:
     period = np.zeros(len(names))
     period[np.array(candidates, dtype=int)] = np.where(ok, TURN, 0.0)
     return period[:nx], period[nx:]
+
+
+def winding_reach(dae, t, x, z, u_at, p, d) -> float:
+    """How long (s) an integrator call from (t, x, z) may last: until a periodic state winds TURN_LIMIT
+    at its present rate (inf when none winds). Within a call the angle grows again from its
+    turn-reduced start, and with it the round-off in everything computed from it. `u_at(t)`: the
+    inputs at t."""
+    px, _ = whole_turns(dae)
+    if not px.any():
+        return float("inf")
+    rate = np.asarray(dae.ode(t, x, z, u_at(t), p, d), dtype=float).ravel()
+    wind = float(np.max(np.abs(rate[px > 0])))
+    return TURN_LIMIT / wind if np.isfinite(wind) and wind > 0 else float("inf")
 
 
 def turns_of(values, period) -> np.ndarray:
