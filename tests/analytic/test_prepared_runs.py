@@ -40,7 +40,8 @@ def full_runs(monkeypatch):
 
 
 def test_a_plain_run_repeats_its_integrator_call_with_simulate_s_numbers(oscillator, full_runs):
-    # Inertia J = 0.1 kg·m² on a torsional spring c (tunable), from φ0 (start value) at rest: φ = φ0 cos(√(c/J) t).
+    # Inertia J = 0.1 kg·m² on a torsional spring c (tunable), from φ0 (start value) at rest:
+    # φ = φ0 cos(√(c/J) t).
     # Pass criteria: every call equals cm.simulate with the same arguments bit for bit; the angle within
     # 10·(rtol·0.5 + atol) · (ω·2 s) of the closed form over 2 s (101 outputs; the global error of a
     # controlled run grows with the periods: at most ω t / 2π ≈ 10 of them here); only the first call
@@ -77,8 +78,10 @@ def test_a_pendulum_wound_many_turns_repeats_its_call_without_the_turns(full_run
     # turns out of the integrator call. Started 0.3 + 2π·k rad (k = 0, 10, 1000), it is the same motion.
     # Pass criteria: each call equals cm.simulate bit for bit; the wound runs' angles less 2πk match the
     # unwound one within 100 ulp of 2πk (the turns are held exactly: only the start's rounding is left,
-    # measured 2e-13 and 9e-13 rad; integrated with the turns, an error of rtol·2πk = 6e-5 rad); then a wheel spun at 2000 rad/s winds past TURN_LIMIT (256 rad) within the 1 s run, so the
-    # call is cm.simulate in full (its run loop splits it), with simulate's numbers.
+    # measured 2e-13 and 9e-13 rad; integrated with the turns, an error of rtol·2πk = 6e-5 rad); then a
+    # wheel spun at 2000 rad/s winds past TURN_LIMIT (256 rad) within the 1 s run, so that call is
+    # cm.simulate in full (its run loop splits it), with simulate's numbers; the next ordinary start
+    # takes the fast path again.
     m = mn.Model("pendulum")
     world = m.add(mb.World(name="world", g=[0.0, -9.81, 0.0]))
     rev = m.add(mb.Revolute(name="rev", n=[0, 0, 1], phi_start=0.3, w_start=0.0))
@@ -100,6 +103,8 @@ def test_a_pendulum_wound_many_turns_repeats_its_call_without_the_turns(full_run
     spun = run(start={"rev.w": 2000.0})
     same(spun, cm.simulate(1.0, n_out=51, rtol=RTOL, atol=ATOL, start={"rev.w": 2000.0}))
     assert full_runs[0] == 2 and spun.stats["segments"] > 1
+    same(run(start={"rev.phi": 0.4}), cm.simulate(1.0, n_out=51, rtol=RTOL, atol=ATOL, start={"rev.phi": 0.4}))
+    assert full_runs[0] == 2
 
 
 def test_a_run_with_events_stays_with_simulate(full_runs):

@@ -35,7 +35,9 @@ SETTINGS = tuple(n for n in inspect.signature(simulate).parameters if n not in (
 
 
 class PreparedRun:
-    """`cm.simulate(t_end, **settings)` as a function of the parameters and start values (`cm.prepare`)."""
+    """`cm.simulate(t_end, **settings)` as a function of the parameters and start values (`cm.prepare`).
+    The first call that succeeds decides the path for every later one: a first run the loop had to
+    split or stop (a start spun past the winding reach, an event) keeps every call on `cm.simulate`."""
 
     def __init__(self, cm, t_end: float, settings: dict):
         for name in settings:
@@ -116,12 +118,14 @@ class PlainRun:
             return None
         dae = template["dae"]
         plain = (run.failure is None and not run.events and not template["events"] and run.monitor is None
-                 and not dae.zero_labels and not run.quaternions and not run.plan.varying and run.stats["segments"] == 1 and dae.x.numel() > 0
+                 and not dae.zero_labels and not run.quaternions and not run.plan.varying
+                 and run.stats["segments"] == 1 and dae.x.numel() > 0
                  and len(run.rows.blocks) == 2 and run.choice == template["choice"]
                  and "selection" not in run.stats)     # (no branch verdict, which parameters could change)
         return cls(cm, template) if plain else None
 
     def _u_at(self, t):
+        """The inputs at t (`Run._u_at`)."""
         return self.plan.at(t)[:, 0]
 
     def run(self, params, start, guess):
@@ -171,10 +175,7 @@ class _Outcome:
 
     def __init__(self, plain: PlainRun, d, stats, h):
         self.rows, self.events, self.failure, self.choice = Rows(), [], None, plain.choice
-        self.plan = plain.plan
+        self._u_at = plain._u_at
         self.stats = {"nsteps": int(stats.get("nsteps", 0)), "nfevals": int(stats.get("nfevals", 0)),
                       "netfails": int(stats.get("netfails", 0)), "nncfails": int(stats.get("nncfails", 0)),
                       "segments": 1, **plain.stats, "hlast": float(stats.get("hlast", float("nan"))) * h}
-
-    def _u_at(self, t):
-        return self.plan.at(t)[:, 0]
