@@ -169,7 +169,8 @@ class AccuracyStudy:
         ax.set_ylabel(f"error at t = {self.at:g} s")
         ax.set_title(f"{self.name}: work-precision ({self.reference})", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        if ax.get_legend_handles_labels()[0]:   # (no labelled line: no legend, and no warning)
+            ax.legend(fontsize=8)
         if path is not None:
             fig.savefig(path, dpi=110, bbox_inches="tight")
         return fig
