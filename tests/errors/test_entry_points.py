@@ -17,7 +17,7 @@ BAD = {"None": None, "string": "abc", "list": [1, 2], "nan": math.nan, "bool": T
 
 # the values each entry point may take: None where it means the default, and the like
 MEANINGFUL = {
-    "simulate(n_out)": {"None"}, "simulate(t_out)": {"None"}, "simulate(params)": {"None"},
+    "simulate(t_start)": {"None"}, "simulate(n_out)": {"None"}, "simulate(t_out)": {"None"}, "simulate(params)": {"None"},
     "simulate(inputs)": {"None"}, "simulate(start)": {"None"}, "simulate(guess)": {"None"},
     "simulate(progress)": {"None", "bool"}, "simulate(continue_from)": {"None"},
     "linearize(x_op)": {"None"}, "linearize(u_op)": {"None"}, "trim(inputs)": {"None"}, "trim(fixed)": {"None"},

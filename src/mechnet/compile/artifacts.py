@@ -113,6 +113,7 @@ class FlatSystem:
     switched: tuple = ()          # (path, type, form) of each component with modes: friction, stops, relays
     releases: tuple = ()          # (mode index, released value, stays, value when released): `jump_releases`
     requirements: tuple = ()      # (expression >= 0 at the start, what): `Component.start_requirements`
+    parameter_requirements: tuple = ()   # dicts: `core/requirements.compiled`, checked on new values
 
     def expand(self, exprs: list) -> list:
         """`exprs` with the intermediates replaced by their definitions (sharing kept: one pass)."""

@@ -282,6 +282,7 @@ def reduce_baumgarte(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, 
     info = {"alg_labels": tuple(alg_labels), "solved": 0, "torn": z.numel(), "observed_only": 0,
             "folded_parameters": flat.folded_parameters,
             "parameter_checks": {q.name: (q.declaration, q.owner) for q in flat.parameters},
+            "parameter_requirements": original.parameter_requirements,
             "nominal": {v.name: v.nominal for v in original.variables},
             "index_reduction": "casadi-baumgarte", "baumgarte_pole": pole,
             "casadi_invariants": _fn("casadi_invariants", args, reduced["I"], "I")}

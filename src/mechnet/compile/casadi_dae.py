@@ -177,6 +177,7 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
     nominal = {v.name: v.nominal for v in original.variables}
     info = {"alg_labels": tuple(alg_labels), "linear_tears": tuple(linear_tears), "solved": len(value), "folded_parameters": flat.folded_parameters,
             "parameter_checks": {q.name: (q.declaration, q.owner) for q in flat.parameters}, "torn": len(z_index),
+            "parameter_requirements": original.parameter_requirements,
             "observed_only": _count_observed_only(value, depends, flat, z_index, original),
             "nominal": nominal, "quaternions": quaternions,
             "zero_at_start": tuple(zc.at_start for zc in flat.zero_crossings), "rest_transition": rests,

@@ -15,6 +15,7 @@ from ..core.declarations import Across, Impulse, Input, Output, State, Through
 from ..core.equation import derivative_parent, time
 from ..core.errors import StructureError
 from ..core.model import Model
+from ..core.requirements import compiled
 from .artifacts import FlatEquation, FlatMode, FlatSystem, FlatVariable, Parameter, ZeroCrossing
 from .connections import connection_equations
 from .spanning_tree import build_tree
@@ -222,7 +223,9 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
                       multibody=tree, observed_only=tuple(tree.observed) if tree is not None else (),
                       intermediates=tree.intermediates if tree is not None else ((), ()), modes=tuple(modes),
                       unit_quaternions=_unit_quaternions(components), switched=switched,
-                      releases=tuple(releases), requirements=requirements)
+                      releases=tuple(releases), requirements=requirements,
+                      parameter_requirements=tuple(entry for comp in components
+                                                   for entry in compiled(comp, comp.path)))
 
 
 def _unit_quaternions(components) -> tuple:

@@ -32,7 +32,7 @@ from contextvars import ContextVar
 import casadi as ca
 
 from ..core.equation import Eq, When, der
-from ..core.errors import ParameterError
+from ..core.requirements import Requirement
 
 HELD, FORWARD, BACKWARD = 0.0, 1.0, -1.0
 
@@ -142,11 +142,6 @@ def restitution(value):
     return None if 0.0 <= value <= 1.0 else "must lie in [0, 1] (0 plastic, 1 elastic)"
 
 
-def value_of(component, key):
-    """A parameter's number, tunable or folded (for checks made at construction)."""
-    return component.tunable[key][1] if key in component.tunable else component._values[key]
-
-
 def folded_zero(component, key) -> bool:
     return key not in component.tunable and component._values[key] == 0
 
@@ -157,12 +152,11 @@ class SwitchedFriction:
     `_characteristic()` → (Coulomb, viscous, Stribeck, v_Stribeck), `_coefficient_keys()` the parameters
     whose all being folded zeros makes the element absent."""
 
-    def check_static_above_kinetic(self):
-        """mu_s >= mu_k: a surface holds at least what it resists sliding with (the μ-form elements)."""
-        if value_of(self, "mu_s") < value_of(self, "mu_k"):
-            raise ParameterError(f"{self.name} ({type(self).__name__}): static friction mu_s = "
-                                 f"{value_of(self, 'mu_s')} is below kinetic mu_k = {value_of(self, 'mu_k')}; "
-                                 f"a surface holds at least what it resists sliding with")
+    def requirements(self):
+        """mu_s >= mu_k for the μ-form elements (checked wherever a value enters: `core/requirements.py`)."""
+        if "mu_s" not in self._declarations:
+            return []
+        return [Requirement("mu_s", ">=", "mu_k", "a surface holds at least what it resists sliding with")]
 
     def _inert(self) -> bool:
         return all(folded_zero(self, k) for k in self._coefficient_keys())
@@ -216,11 +210,9 @@ class SwitchedStop:
     """Mixin of the stops and rigid contacts: free between limits, impacts with restitution e, resting
     against a limit. Hooks: `_flow()`, `_position()`, `_limits()` → (lower or None, upper or None)."""
 
-    def check(self):
+    def requirements(self):
         lower, upper = self._limit_keys()
-        if lower and upper and value_of(self, lower) >= value_of(self, upper):
-            raise ParameterError(f"{self.name} ({type(self).__name__}): limits reversed or equal: {lower} = "
-                                 f"{value_of(self, lower)} must be below {upper} = {value_of(self, upper)}")
+        return [Requirement(upper, ">", lower, "limits reversed or equal")] if lower and upper else []
 
     def equations(self):
         v, a = relative_motion(self._position())

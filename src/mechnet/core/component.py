@@ -22,6 +22,7 @@ from .declarations import (Across, all_tunable, Declaration, finite_number, Flag
                            Port, Through, Tunable, Variable)
 from .equation import Eq, register, time
 from .errors import ConnectError, ParameterError, StructureError
+from .requirements import check_component
 from .signatures import docstring, keyword_names, signature
 
 
@@ -189,6 +190,7 @@ class Component:
                     np.full(decl.shape, float(decl.nominal))))
         if kwargs:
             raise ParameterError(self._unknown_arguments(label, sorted(kwargs)))
+        check_component(self, label)
         self.check()
 
     @staticmethod
@@ -237,7 +239,14 @@ class Component:
     # ---- hooks for subclasses ---------------------------------------------------------------
 
     def check(self) -> None:
-        """Cross-parameter checks; raise ParameterError naming the component."""
+        """Checks at construction that are not a comparison of two scalar parameters (axes that must
+        cross, a hollow inside its solid); raise ParameterError naming the component."""
+
+    def requirements(self) -> list:
+        """Comparisons between two scalar parameters that must hold (`core/requirements.Requirement`):
+        checked at construction and wherever a tunable one is given a new value (simulate(params=),
+        prepared runs, a loaded export, an FMU's parameter setter)."""
+        return []
 
     def equations(self) -> list:
         """The component's equations (`Eq` or residual expressions), in a fixed order."""

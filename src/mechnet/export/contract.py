@@ -29,6 +29,8 @@ variability and the dependency sparsity.
 """
 from __future__ import annotations
 
+import sys
+
 import casadi as ca
 import numpy as np
 
@@ -213,6 +215,9 @@ def metadata(cm, dae, starts: list, verdict: dict) -> dict:
         "alg_labels": list(dae.info.get("alg_labels", ())),
         "linear_tears": list(dae.info.get("linear_tears", ())),       # large linear blocks left to the solver
         "folded_parameters": list(dae.info.get("folded_parameters", ())),
+        # comparisons between parameters a new value must keep (`core/requirements.py`): `load` and the
+        # FMU's C wrapper check them as simulate(params=) does
+        "parameter_requirements": [dict(entry) for entry in dae.info.get("parameter_requirements", ())],
         "dependencies": dependencies(dae),
         "selection": verdict,
     }
@@ -240,10 +245,17 @@ def exported_selection(cm):
 
 
 def _check(dae, name: str) -> dict:
-    """A tunable parameter's owner, doc and check (by the name of one of mechnet's checks)."""
+    """A tunable parameter's owner, doc and check: by its name for one of core/declarations.py's checks,
+    as "module:name" for one defined elsewhere in mechnet (a coefficient of restitution's), so `load`
+    finds it again; None for a check of the user's own."""
     from ..core import declarations
     declaration, owner = dae.info.get("parameter_checks", {}).get(name, (None, name))
     check = getattr(declaration, "check", None)
-    known = getattr(check, "__name__", "")
-    return {"owner": owner, "doc": getattr(declaration, "doc", ""),
-            "check": known if getattr(declarations, known, None) is check else None}
+    known, module = getattr(check, "__name__", ""), getattr(check, "__module__", "") or ""
+    if getattr(declarations, known, None) is check:
+        where = known
+    elif module.startswith("mechnet.") and getattr(sys.modules.get(module), known, None) is check:
+        where = f"{module}:{known}"
+    else:
+        where = None
+    return {"owner": owner, "doc": getattr(declaration, "doc", ""), "check": where}

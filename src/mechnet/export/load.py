@@ -1,6 +1,7 @@
 """`mechnet.export.load(path)`: an exported model back, without the scene code that built it."""
 from __future__ import annotations
 
+import importlib
 import json
 import warnings
 from pathlib import Path
@@ -84,6 +85,7 @@ def _dae(record: dict, fns: dict) -> SemiExplicitDAE:
     checks = {v["name"]: (_declaration(v), v.get("owner", v["name"])) for v in record["p"]}
     info = {"alg_labels": tuple(record["alg_labels"]), "linear_tears": tuple(record.get("linear_tears", ())),
             "folded_parameters": tuple(record["folded_parameters"]),
+            "parameter_requirements": tuple(record.get("parameter_requirements", ())),
             "nominal": {v["name"]: v["nominal"] for v in record["observed"]}, "parameter_checks": checks,
             "solved": 0, "torn": len(record["z"]), "observed_only": 0,
             "quaternions": tuple(tuple(index) for index in record.get("quaternions", ())),
@@ -109,10 +111,15 @@ def _dae(record: dict, fns: dict) -> SemiExplicitDAE:
 
 
 def _declaration(entry: dict):
-    """A parameter's check as the scene declared it (by the name of one of mechnet's checks), so a
-    new value is refused as it was before export; None when the check was another function."""
+    """A parameter's check as the scene declared it (by the name of one of core/declarations.py's checks,
+    or "module:name" of one elsewhere in mechnet: `contract._check`), so a new value is refused as it was
+    before export; None when the check was the user's own function (a new value must then be finite)."""
     from ..core import declarations
-    check = getattr(declarations, entry.get("check") or "", None)
+    where = entry.get("check") or ""
+    module, _, name = where.rpartition(":")
+    if module and not module.startswith("mechnet."):
+        return None
+    check = getattr(importlib.import_module(module) if module else declarations, name, None)
     if not callable(check):
         return None
     decl = declarations.Param(entry["value"], unit=entry["unit"], doc=entry.get("doc", ""), check=check)

@@ -195,6 +195,48 @@ def initialize(dae, t0: float, u: np.ndarray, p: np.ndarray, start: dict, guess:
                         float(np.max(np.abs(r))) if r.size else 0.0)
 
 
+def ready_to_integrate(dae, t0: float, init: InitialPoint, u: np.ndarray, p: np.ndarray,
+                       d: np.ndarray) -> InitialPoint:
+    """The start of a run as the integrator gets it, or InitializationError naming why it cannot be one.
+
+    Quaternion states are scaled to |Q| = 1, as at every restart (R uses Q/|Q|: only the numbers
+    recorded change; a Q_start of [2, 0, 0, 0] used to show |Q| = 2 in the first row); a zero quaternion
+    is no orientation and is refused. A state, algebraic variable or derivative that is not finite at the
+    start (a start of 1e308 whose spring torque overflows, der(x) = 1/x at x = 0) is refused by name: the
+    integrator would stop at once and return a partial result of that one non-finite row."""
+    x, z = init.x, init.z
+    fixed = ", ".join(init.fixed) or "none"
+    for index in dae.info.get("quaternions", ()):
+        q = x[list(index)]
+        norm = np.linalg.norm(q)
+        if not norm > 0:
+            names = ", ".join(dae.x_names[k] for k in index)
+            raise InitializationError(f"the quaternion {names} starts at {q.tolist()}, the zero quaternion, which "
+                                      f"is no orientation (start values fixed: {fixed}); the identity is [1, 0, 0, 0]")
+        if np.isfinite(norm) and norm != 1.0:
+            x = x.copy()
+            x[list(index)] = q / norm
+    if x is not init.x and z.size:
+        z = solve_algebraic(dae, t0, x, z, u, p, d)
+    for names, values in ((dae.x_names, x), (dae.z_names, z)):
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise InitializationError(f"{names[bad[0]]} = {values[bad[0]]} at the start is not finite (start values "
+                                      f"fixed: {fixed}); check the start values, guesses and parameters")
+    if x.size:
+        xdot = np.asarray(dae.ode(t0, x, z, u, p, d)).ravel()
+        bad = np.flatnonzero(~np.isfinite(xdot))
+        if bad.size:
+            states = ", ".join(f"{n} = {v:g}" for n, v in list(zip(dae.x_names, x))[:6]) + \
+                (", ..." if x.size > 6 else "")
+            raise InitializationError(f"der({dae.x_names[bad[0]]}) = {xdot[bad[0]]} at the start, from {states} "
+                                      f"(start values fixed: {fixed}): the model cannot be integrated from there; "
+                                      f"check the start values and parameters")
+    if x is init.x:
+        return init
+    return InitialPoint(x, z, init.fixed, init.free_states, init.residual)
+
+
 def _initial_system(dae, names: tuple, kept: tuple, conditions: list):
     """Residual and Jacobian Functions of (w, t, u, p, fixed values) of the initial system: the kept
     start conditions (positions among the start expressions; None: der(x) = 0, one per state in

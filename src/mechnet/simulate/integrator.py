@@ -9,13 +9,14 @@ import casadi as ca
 import numpy as np
 
 from ..caches import BUILD_LOCK
-from ..core.errors import InitializationError, MechnetError, ParameterError, UnknownNameError
+from ..core.errors import InitializationError, IntegrationError, MechnetError, ParameterError, UnknownNameError
 from ..core.arguments import flag, mapping, whole_number
 from ..core.declarations import finite_number, not_a_number
+from ..core.requirements import check_values
 from ..solver_output import captured
 from .branch import selections, state_names
 from .events import breakpoints, output_grid
-from .initialize import initialize
+from .initialize import initialize, ready_to_integrate
 from .inputs import plan_inputs
 from .result import Result, unknown_name
 from .rows import observe
@@ -33,7 +34,7 @@ class IntegrationWarning(UserWarning):
     """Issued when simulate() returns a partial result after a solver failure."""
 
 
-def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol: float = 1e-8,
+def simulate(cm, t_end: float, *, t_start: float | None = None, rtol: float = 1e-6, atol: float = 1e-8,
              method: str = "auto", n_out: int | None = None, t_out=None, params: dict | None = None,
              inputs: dict | None = None, start: dict | None = None, guess: dict | None = None,
              max_steps: int = 20_000, progress: bool | None = None, steady_state: bool = False,
@@ -51,6 +52,8 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     `continue_from=res` continues a run: it starts at res's final time from its
     final states (fixed) with every other final value as a guess, so dependent
     coordinates stay on their branch; the components' own start values do not apply.
+    A `t_start` (or `t_out`) other than res's final time, or `start` values, would make it no
+    continuation (a jump in time or state): they are refused.
     """
     dae = cm.dae
     if _nothing_moves(dae):
@@ -61,7 +64,8 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     max_steps = whole_number(max_steps, "max_steps", 1)
     progress = flag(progress, "progress", allow_none=True)
     steady_state = flag(steady_state, "steady_state")
-    t_start, t_end = _check_time(t_start, "t_start"), _check_time(t_end, "t_end")
+    given_start = None if t_start is None else _check_time(t_start, "t_start")
+    t_start, t_end = given_start or 0.0, _check_time(t_end, "t_end")
     rtol, atol = _check_tolerance(rtol, "rtol"), _check_tolerance(atol, "atol")
     if not RTOL_RANGE[0] <= rtol < RTOL_RANGE[1]:
         why = "each step could be wrong by its whole size" if rtol >= 1 else "double precision cannot meet it"
@@ -75,6 +79,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
             raise MechnetError(f"continue_from holds a result of another model: model {cm.name!r} has no "
                                f"{', '.join(foreign[:3])}")
         t_start = continue_from.final_time
+        _check_continuation(continue_from, given_start, start)
         guess = {**continue_from.final_values, **(guess or {})}
         dae = _selection_with_states(cm, continue_from.state_names) or dae
     choice = choose_method(dae, method)
@@ -91,6 +96,10 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
             raise MechnetError("t_out must be an increasing sequence of at least two finite times")
         if abs(t_end - grid[-1]) > 1e-12 * max(1.0, abs(t_end)):
             raise MechnetError(f"t_end = {t_end:g} but t_out ends at {grid[-1]:g}; pass t_end = t_out[-1]")
+        if continue_from is not None and grid[0] != t_start:
+            raise MechnetError(f"continue_from=res goes on from res's final time {t_start:.17g} s, but t_out starts "
+                               f"at {grid[0]:.17g} s; start t_out at res.final_time (or simulate anew, without "
+                               f"continue_from)")
         t_start, t_end = float(grid[0]), float(grid[-1])
     else:
         if not (np.isfinite(t_end) and np.isfinite(t_start) and t_end > t_start):
@@ -105,6 +114,7 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
 
     wall = _time.perf_counter()
     init = initialize(dae, t_start, plan.constant, p, starts, guess or {}, steady_state, d)
+    init = ready_to_integrate(dae, t_start, init, plan.constant, p, d)
     _check_requirements(dae, t_start, init, plan, p, d, rtol, atol)
     events = breakpoints((*dae.time_events, *plan.time_events), t_start, t_end)
     grid = output_grid(grid, events)
@@ -118,6 +128,20 @@ def simulate(cm, t_end: float, *, t_start: float = 0.0, rtol: float = 1e-6, atol
     return assemble(cm, dae, run, wall, messages, init, plan, p)
 
 
+def _check_continuation(res, t_start, start):
+    """A continued run starts where `res` ended, in time and state: a different t_start or start values
+    would silently jump one of them (issue 31), so either is refused, naming the conflict."""
+    if t_start is not None and t_start != res.final_time:
+        raise MechnetError(f"continue_from=res goes on from res's final time {res.final_time:.17g} s, and t_start = "
+                           f"{t_start:.17g} s conflicts with it; leave t_start out (or simulate anew, without "
+                           f"continue_from)")
+    if start:
+        names = ", ".join(sorted(start)[:3]) + (", ..." if len(start) > 3 else "")
+        raise MechnetError(f"continue_from=res starts from res's final state, and start values ({names}) would jump "
+                           f"it; leave start out to continue, or simulate anew (without continue_from) from start "
+                           f"values; a guess= is fine")
+
+
 def start_values(dae, start: dict | None, guess: dict | None, continue_from=None) -> tuple[np.ndarray, dict]:
     """(modes, start values) of a run: the components' starts (or a continued run's final state and
     modes) with `start` over them; every name of `start` and `guess` checked."""
@@ -129,19 +153,21 @@ def start_values(dae, start: dict | None, guess: dict | None, continue_from=None
         if name not in dae.observed_names:
             raise unknown_name(name, dae.observed_names, "start value for")
         if name in dae.d_names:                # a mode's start is its value, not an equation
-            d[dae.d_names.index(name)] = _check_value(value, f"start value {name}")
+            d[dae.d_names.index(name)] = _check_value(value, f"simulate(start=...): start value {name}")
             continue
-        starts[name] = _check_value(value, f"start value {name}")
+        starts[name] = _check_value(value, f"simulate(start=...): start value {name}")
     for name, value in (guess or {}).items():
         if name not in dae.observed_names:
             raise unknown_name(name, dae.observed_names, "guess for")
-        _check_value(value, f"guess {name}")
+        _check_value(value, f"simulate(guess=...): guess {name}")
     return d, starts
 
 
 def assemble(cm, dae, run, wall, messages, init, plan, p) -> Result:
     """The Result of a finished run (`run`: its rows, events, failure and statistics)."""
     stats = run.stats
+    if run.failure is not None:
+        _end_at_last_finite_row(run, plan, p)
     stats["wall_time"] = _time.perf_counter() - wall
     stats["plugin"] = run.choice.plugin
     stats["solver_messages"] = messages
@@ -186,6 +212,28 @@ def assemble(cm, dae, run, wall, messages, init, plan, p) -> Result:
             if messages else ""
         warnings.warn(str(run.failure) + said, IntegrationWarning, stacklevel=4)
     return result
+
+
+def _end_at_last_finite_row(run, plan, p):
+    """A failed run's rows end before the first one holding a value that is not finite (values not finite
+    from the first row on, a sensor undefined at rest, aside): past it the rows are the failure, not a
+    solution, and `continue_from` or a plot would take them for one. The failure then says so."""
+    stretches = [(X, Z, observe(sel, t, X, Z, plan, p, D) if given is None else given)
+                 for sel, t, X, Z, D, given in run.rows.by_selection()]
+    if not stretches:
+        return
+    watched = np.isfinite(stretches[0][2][0])
+    finite = np.concatenate([np.isfinite(X).all(axis=1) & np.isfinite(Z).all(axis=1)
+                             & np.isfinite(Y[:, watched]).all(axis=1) for X, Z, Y in stretches])
+    if finite.all():
+        return
+    keep = max(1, int(np.argmin(finite)))
+    run.rows.keep_first(keep)
+    old, t_good = run.failure, run.rows.last.t
+    run.failure = IntegrationError(f"{old}; the rows after t = {t_good:.6g} s held values that are not finite and "
+                                   f"were dropped: the result ends there", t=t_good, step=old.step,
+                                   worst=old.worst, solver_message=old.solver_message)
+    run.stats["failed_at"] = float(t_good)
 
 
 def _selection_with_states(cm, names):
@@ -243,6 +291,9 @@ def _check_value(value, what: str) -> float:
 
 
 def _resolve_params(dae, given: dict | None) -> np.ndarray:
+    """The parameter vector of a run: the compiled values with `given` over them, each new value checked
+    as at construction (its Param's check, then the requirements between parameters, which a new value
+    could break: `core/requirements.py`); a value no check is known for must still be finite."""
     values = np.array(dae.p_value, dtype=float)
     checks = dae.info.get("parameter_checks", {})
     for name, value in (given or {}).items():
@@ -259,7 +310,11 @@ def _resolve_params(dae, given: dict | None) -> np.ndarray:
             except ParameterError as exc:
                 raise ParameterError(f"simulate(params={{{name!r}: ...}}): {exc}") from None
         else:
-            values[dae.p_names.index(name)] = float(value)
+            values[dae.p_names.index(name)] = finite_number(value, f"simulate(params={{{name!r}: ...}}): {owner}",
+                                                            ParameterError)
+    if given:
+        check_values(dae.info.get("parameter_requirements", ()), dict(zip(dae.p_names, values)),
+                     "simulate(params=...)")
     return values
 
 

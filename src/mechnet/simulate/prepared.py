@@ -23,7 +23,7 @@ from ..core.arguments import mapping
 from ..core.errors import MechnetError
 from ..solver_output import captured
 from .integrator import TEMPLATE, _check_requirements, _resolve_params, assemble, simulate, start_values
-from .initialize import initialize
+from .initialize import initialize, ready_to_integrate
 from .rows import Rows
 from .run import STIFF_MIN_STEPS, STIFF_SHARE
 from .solvers import SolverFailure, call
@@ -143,6 +143,7 @@ class PlainRun:
         t0, h = self.grid[0], self.grid[-1] - self.grid[0]
         if key != known:
             init = initialize(dae, self.t_start, plan.constant, p, starts, guess or {}, self.steady_state, d)
+            init = ready_to_integrate(dae, self.t_start, init, plan.constant, p, d)
             _check_requirements(dae, self.t_start, init, plan, p, d, self.rtol, self.atol)
             if t0 + winding_reach(dae, t0, init.x, init.z, self._u_at, p, d) < self.grid[-1]:
                 return None                      # a coordinate winds too far for one call: the run loop splits it

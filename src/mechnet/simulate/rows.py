@@ -70,11 +70,25 @@ class Rows:
 
     def replace_last(self, x, z, dae):
         """The last row holds (x, z) of selection `dae` instead (a re-selection at a recorded time)."""
+        last = self.blocks[-1]
+        self.drop_last()
+        self.add_row(last.t[-1], x, z, dae, last.d)
+
+    def drop_last(self):
+        """Forget the last row (a state at an event instant that is on neither side of it)."""
         b = self.blocks.pop()
         self.count -= len(b.t)
         if len(b.t) > 1:
             self.add(b.t[:-1], b.x[:-1], b.z[:-1], b.dae, b.d, None if b.observed is None else b.observed[:-1])
-        self.add_row(b.t[-1], x, z, dae, b.d)
+
+    def keep_first(self, n: int):
+        """Only the first n rows stay (a failed run's partial result ends at its last finite row)."""
+        while self.count > n:
+            b = self.blocks.pop()
+            self.count -= len(b.t)
+            keep = n - self.count
+            if keep > 0:
+                self.add(b.t[:keep], b.x[:keep], b.z[:keep], b.dae, b.d, None if b.observed is None else b.observed[:keep])
 
     def backwards(self):
         """The rows from the last to the first."""

@@ -71,9 +71,6 @@ class Clutch(PartialFriction):
                        check=nonnegative)
     f_normalized = Input(default=1.0, unit="1", doc="normalised normal force (0 open, 1 fully pressed)")
 
-    def check(self):
-        self.check_static_above_kinetic()
-
     def _characteristic(self):
         scale = self.cgeo * self.fn_max * ca.fmax(self.f_normalized, 0.0)
         return self.mu_k * scale, self.mu_v * scale, (self.mu_s - self.mu_k) * scale, self.w_Stribeck

@@ -66,9 +66,6 @@ class Friction(PartialFriction):
     v_Stribeck = Param(0.0, unit="m/s", doc="speed over which the static excess decays (0: at once)",
                        check=nonnegative)
 
-    def check(self):
-        self.check_static_above_kinetic()
-
     def _characteristic(self):
         return (self.mu_k * self.fn, self.mu_v * self.fn, (self.mu_s - self.mu_k) * self.fn, self.v_Stribeck)
 
