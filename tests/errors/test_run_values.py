@@ -167,12 +167,24 @@ def test_a_loaded_export_refuses_mu_s_below_mu_k(friction, tmp_path):
         loaded.simulate(1.0, n_out=5, params={"fr.mu_s": 0.1})
 
 
-def test_a_loaded_export_refuses_a_nan_parameter(friction, tmp_path):
+class Decay(mn.Component):
+    """der(x) = −k·x, k checked by the user's own function (which an export cannot name)."""
+
+    k = mn.Param(1.0, unit="1/s", check=lambda value: None if value < 1e3 else "too fast")
+    x = mn.State(unit="1")
+
+    def equations(self):
+        return [mn.Eq(mn.der(self.x), -self.k * self.x)]
+
+
+def test_a_loaded_export_refuses_a_nan_parameter_whose_check_it_cannot_name(tmp_path):
     from mechnet.export import load
-    friction.export(tmp_path / "fr", kind="casadi")
-    loaded = load(tmp_path / "fr")
-    with pytest.raises(mn.ParameterError, match=r"simulate\(params=\{'spring\.c': \.\.\.\}\).*not finite"):
-        loaded.simulate(1.0, n_out=5, params={"spring.c": np.nan})
+    m = mn.Model("decay")
+    m.add(Decay(name="decay", k=mn.tunable(2.0), x_start=1.0))
+    m.compile().export(tmp_path / "decay", kind="casadi")
+    loaded = load(tmp_path / "decay")
+    with pytest.raises(mn.ParameterError, match=r"simulate\(params=\{'decay\.k': \.\.\.\}\).*not finite"):
+        loaded.simulate(1.0, n_out=5, params={"decay.k": np.nan})
 
 
 # ---- a failed run ends at its last finite row -----------------------------------------------------
