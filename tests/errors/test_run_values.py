@@ -246,3 +246,21 @@ def test_a_loaded_export_keeps_a_check_defined_outside_declarations(stops, tmp_p
         loaded.simulate(1.0, n_out=5, params={"stop.e": 2.0})
     with pytest.raises(mn.ParameterError, match=STOPS_BROKEN):
         loaded.simulate(1.0, n_out=5, params={"stop.s_min": 0.06})
+
+
+def test_an_fmu_refuses_mu_s_below_mu_k_at_the_end_of_initialisation(friction, tmp_path):
+    """The FMU's C wrapper reads the same requirements (model_data.h): parameter values set before
+    initialisation are judged together when it ends, and a broken one is an error naming it."""
+    fmpy = pytest.importorskip("fmpy", reason="fmpy (extra 'test') runs FMUs")
+    from mechnet.export.files import compiler
+    if compiler() is None:
+        pytest.skip("no C compiler to build the FMU")
+    path = friction.export(tmp_path / "fr.fmu", kind="fmu")
+    messages = []
+    with pytest.raises(Exception):
+        fmpy.simulate_fmu(str(path), stop_time=0.5, fmi_type="ModelExchange", start_values={"fr.mu_s": 0.1},
+                          logger=lambda *a: messages.append(a[-1]))
+    text = " ".join(m.decode() if isinstance(m, bytes) else str(m) for m in messages)
+    assert "fr (Friction): mu_s must be >= mu_k" in text and "0.1 and 0.2" in text
+    res = fmpy.simulate_fmu(str(path), stop_time=0.5, fmi_type="ModelExchange", start_values={"fr.mu_s": 0.4})
+    assert res["time"][-1] == pytest.approx(0.5)          # guard: a value that keeps it runs

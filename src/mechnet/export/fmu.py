@@ -122,11 +122,31 @@ def model_data(meta: dict, variables: list, ident: str, n_transitions: int, fmi:
     for name, values in (("kind", kind), ("index", index), ("set", setter), ("set_index", set_index),
                          ("known", known), ("known_index", known_index)):
         out += _c_array("int", f"mn_vr_{name}", values)
+    out += requirement_table(meta)
     # the transition functions, declared by the generated header: a table the wrapper walks
     entries = ", ".join(f"{{{ident}_transition_{k}, {ident}_transition_{k}_work, {ident}_transition_{k}_checkout, "
                         f"{ident}_transition_{k}_release}}" for k in range(n_transitions))
     out += f"#define MN_TRANSITIONS {{{entries or '{0, 0, 0, 0}'}}}\n"
     return out
+
+
+def requirement_table(meta: dict) -> str:
+    """The requirements between parameters (`core/requirements.py`, model.json's "parameter_requirements")
+    as C tables: each side a parameter index (or -1 and its folded value), strict or not, and the text
+    the wrapper logs when a value set breaks one."""
+    p_index = {v["name"]: k for k, v in enumerate(meta["p"])}
+    entries = meta.get("parameter_requirements", [])
+    sides = {side: [(p_index[e[side]], 0.0) if e[f"{side}_value"] is None else (-1, e[f"{side}_value"])
+                    for e in entries] for side in ("lhs", "rhs")}
+    out = f"#define MN_NR {len(entries)}\n"
+    for side in ("lhs", "rhs"):
+        out += _c_array("int", f"mn_req_{side}", (i for i, _ in sides[side]))
+        out += _c_array("double", f"mn_req_{side}_value", (v for _, v in sides[side]))
+    out += _c_array("int", "mn_req_strict", (int(e["op"] == ">") for e in entries))
+    texts = [f"{e['owner']}: {e['lhs'].rsplit('.', 1)[-1]} must be {e['op']} {e['rhs'].rsplit('.', 1)[-1]} "
+             f"({e['why']})" for e in entries]
+    return out + (f"static const char *const mn_req_text[{max(len(texts), 1)}] = "
+                  f"{{{', '.join(_c_string(t) for t in texts) or '0'}}};\n")
 
 
 def _build_description(ident: str) -> str:

@@ -346,8 +346,12 @@ static int get_real(Instance *m, const uint32_t *vr, size_t n, double *value) {
     return ST_OK;
 }
 
+static int check_parameters(Instance *m);
+
 static int set_real(Instance *m, const uint32_t *vr, size_t n, const double *value) {
     size_t i;
+    double p_before[MN_NP + 1];
+    memcpy(p_before, m->p, sizeof(double) * MN_NP);
     for (i = 0; i < n; i++) {
         uint32_t r = vr[i];
         int where = r <= MN_NVAR ? mn_vr_set[r] : -1, k = r <= MN_NVAR ? mn_vr_set_index[r] : 0;
@@ -366,6 +370,10 @@ static int set_real(Instance *m, const uint32_t *vr, size_t n, const double *val
             if (i) changed(m);                  /* the values before it were taken */
             return ST_ERROR;
         }
+    }
+    if (m->mode == MODE_EVENT && memcmp(p_before, m->p, sizeof(double) * MN_NP) && check_parameters(m) != ST_OK) {
+        memcpy(m->p, p_before, sizeof(double) * MN_NP);   /* (tuned in event mode: the call is refused whole) */
+        return ST_ERROR;
     }
     if (n) changed(m);
     return ST_OK;
@@ -416,9 +424,24 @@ static int enter_event_mode(Instance *m) {
     return ST_OK;
 }
 
+/* the requirements between parameters (mu_s >= mu_k, stop limits: mechnet's core/requirements.py, the
+ * tables of model_data.h): ST_ERROR naming the first one the parameter values break */
+static int check_parameters(Instance *m) {
+    int k;
+    for (k = 0; k < MN_NR; k++) {
+        double a = mn_req_lhs[k] >= 0 ? m->p[mn_req_lhs[k]] : mn_req_lhs_value[k];
+        double b = mn_req_rhs[k] >= 0 ? m->p[mn_req_rhs[k]] : mn_req_rhs_value[k];
+        if (mn_req_strict[k] ? a > b : a >= b) continue;
+        logf_(m, ST_ERROR, "logStatusError", "%s: the values %g and %g break it", mn_req_text[k], a, b);
+        return ST_ERROR;
+    }
+    return ST_OK;
+}
+
 static int exit_init(Instance *m) {
-    int k, st = ensure_init(m);
+    int k, st = check_parameters(m);        /* values set one by one before: judged together here */
     if (st != ST_OK) return st;
+    if ((st = ensure_init(m)) != ST_OK) return st;
     if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
     arm(m);
     /* a condition marked at_start that is already past zero in its direction (a friction element
