@@ -3,9 +3,10 @@
 motor (J_m, spinning) ── clutch ── load (J_l) ── brake ── housing
 
 The clutch is pressed at 0.5 s: it slips (3 N·m) until both sides turn together at 0.75 s and then
-sticks. The brake, open until then (no normal force: it carries no torque), is pressed at 2 s and
-stops the whole line at 2.2 s, then holds it at rest exactly (stuck, not creeping). The inputs are
-steps (time events); the brake breaking away *at* the clutch's step and each sticking are state events.
+sticks. The brake, open until then (no normal force: it holds nothing and carries no torque), is
+pressed at 2 s and stops the whole line at 2.2 s, then holds it at rest exactly (stuck, not creeping).
+The inputs are steps (time events); each element starting to slide when pressed (at the step) and
+each sticking are state events.
 """
 import mechnet as mn
 from mechnet.components import rotational as rot

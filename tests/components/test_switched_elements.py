@@ -142,30 +142,64 @@ def test_ocp_poses_friction_in_its_smooth_form_and_says_so():
 
 # ---- events at a time event -------------------------------------------------------------------
 
-def test_a_brake_without_normal_force_breaks_away_the_instant_a_clutch_engages():
-    """Motor (J = 0.1, 10 rad/s) and load (J = 0.3) joined by a clutch engaging at 0.5 s (slip torque
-    0.3·0.1·100 = 3 N·m); the load's brake has no normal force until 2 s, so it breaks away *at* 0.5 s
-    (the condition jumps with the input: no crossing before). Speeds equal at 0.75 s (2.5 rad/s); the
-    brake (5 N·m from 2 s) stops both at 2.2 s and holds them. Times within 1e-9 s at rtol 1e-10."""
+def _drive(brake_input=None):
     m = mn.Model("drive")
     motor = m.add(rot.Inertia(name="motor", J=0.1, phi_start=0.0, w_start=10.0))
     load = m.add(rot.Inertia(name="load", J=0.3, phi_start=0.0, w_start=0.0))
     clutch = m.add(rot.Clutch(name="clutch", fn_max=100.0, mu_k=0.3, mu_s=0.4, cgeo=0.1,
-                              f_normalized=Step(1.0, start_time=0.5)))
-    brake = m.add(rot.Brake(name="brake", fn_max=100.0, mu_k=0.5, mu_s=0.5, cgeo=0.1, f_normalized=Step(1.0, start_time=2.0)))
+                              **({} if brake_input is not None else {"f_normalized": Step(1.0, start_time=0.5)})))
+    brake = m.add(rot.Brake(name="brake", fn_max=100.0, mu_k=0.5, mu_s=0.5, cgeo=0.1,
+                            f_normalized=Step(1.0, start_time=2.0) if brake_input is None else brake_input))
     housing = m.add(rot.Fixed(name="housing"))
     m.connect(motor.flange_b, clutch.flange_a)
     m.connect(clutch.flange_b, load.flange_a)
     m.connect(housing.flange, brake.flange_a)
     m.connect(brake.flange_b, load.flange_b)
-    res = mn.compile(m).simulate(4.0, n_out=41, rtol=1e-10, atol=1e-12)
+    return mn.compile(m)
+
+
+def _state_times(res):
+    return {e.cause.split(" — ")[1]: e.t for e in res.events if e.kind == "state"}
+
+
+def test_a_brake_without_normal_force_holds_nothing_until_it_is_pressed():
+    """Motor (J = 0.1, 10 rad/s) and load (J = 0.3) joined by a clutch pressed at 0.5 s (slip torque
+    0.3·0.1·100 = 3 N·m); the load's brake has no normal force until 2 s: it is open (no static limit,
+    nothing to hold), so it makes no event and carries exactly 0 N·m on every row before 2 s — the row
+    at 0.5 s too, where it used to read the 3 N·m it "held" before a breakaway at that instant. The
+    clutch, open until 0.5 s, starts sliding when pressed; speeds equal at 0.75 s (2.5 rad/s); the
+    brake (5 N·m from 2 s) starts sliding at 2 s, stops both at 2.2 s and holds them. Times within
+    1e-9 s at rtol 1e-10."""
+    res = _drive().simulate(4.0, n_out=41, rtol=1e-10, atol=1e-12)
     assert res.failure is None
-    state = {e.cause.split(" — ")[1]: e.t for e in res.events if e.kind == "state"}
-    assert state["brake breaks away"] == 0.5
+    before = res.t < 2.0
+    assert np.all(res["brake.tau"][before] == 0.0)
+    assert not [e for e in res.events if e.t < 2.0 and e.cause.startswith("brake")]
+    state = _state_times(res)
+    assert state["clutch starts sliding"] == 0.5
     assert state["clutch sticks"] == pytest.approx(0.75, abs=1e-9)
+    assert state["brake starts sliding"] == 2.0
     assert state["brake sticks"] == pytest.approx(2.2, abs=1e-9)
+    # one row at 0.5 s: the right limit (the left limit's inputs cannot be shown at that time)
+    at = np.flatnonzero(res.t == 0.5)
+    assert at.size == 1 and res["clutch.tau"][at[0]] == pytest.approx(-3.0, rel=1e-12)
     after = res.t > 2.2 + 1e-9
     assert np.max(np.abs(res["load.w"][after])) <= 1e-12 and np.max(np.abs(res["motor.w"][after])) <= 1e-12
+
+
+def test_the_clutch_brake_example_shows_no_brake_torque_before_the_brake_is_pressed():
+    """examples/clutch_brake.py at its own settings (301 rows, rtol 1e-10): brake.tau is 0 on every row
+    before 2 s and no brake event is listed before 2 s (issue 31, item 2)."""
+    import importlib.util
+    from pathlib import Path
+    path = Path(__file__).resolve().parents[2] / "examples" / "clutch_brake.py"
+    spec = importlib.util.spec_from_file_location("clutch_brake_example", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    res = example.build().compile().simulate(example.t_end, n_out=301, rtol=1e-10, atol=1e-12)
+    assert res.failure is None
+    assert np.all(res["brake.tau"][res.t < 2.0] == 0.0)
+    assert not [e for e in res.events if e.t < 2.0 and e.cause.startswith("brake")]
 
 
 # ---- stops, contacts and joints ----------------------------------------------------------------
@@ -417,25 +451,41 @@ def test_a_body_resting_on_its_stop_is_knocked_off_it():
     assert res["stop.mode"][after] == 0.0
 
 
+def test_a_torque_stepping_past_the_static_limit_shows_no_held_torque_above_it():
+    """A shaft (J = 0.5) in a bearing holding up to 2 N·m (sliding 1.5 N·m), driven by a torque that
+    steps from 0 to 5 N·m at 1 s: it breaks away at that instant (a condition thrown across by a time
+    event). The row at 1 s is the right limit, sliding: friction −1.5 N·m, not the 5 N·m the stuck mode
+    would need (a state on neither side of the instant). Every row's friction torque stays within the
+    static limit; rtol 1e-10."""
+    m = mn.Model("bearing")
+    shaft = m.add(rot.Inertia(name="shaft", J=0.5, phi_start=0.0, w_start=0.0))
+    housing = m.add(rot.Fixed(name="housing"))
+    bearing = m.add(rot.BearingFriction(name="bearing", tau_Coulomb=1.5, tau_Stribeck=0.5))
+    drive = m.add(rot.Torque(name="drive", tau=Step(5.0, start_time=1.0)))
+    m.connect(housing.flange, bearing.flange_a)
+    m.connect(bearing.flange_b, shaft.flange_a)
+    m.connect(drive.flange, shaft.flange_b)
+    res = mn.compile(m).simulate(2.0, n_out=21, rtol=1e-10, atol=1e-12)
+    assert res.failure is None
+    assert _state_times(res)["bearing breaks away"] == 1.0
+    assert np.max(np.abs(res["bearing.tau"])) <= 2.0
+    at = np.flatnonzero(res.t == 1.0)
+    assert at.size == 1 and abs(res["bearing.tau"][at[0]]) == pytest.approx(1.5, rel=1e-12)
+
+
 def test_a_table_input_stepping_at_a_time_event_is_judged_at_its_left_limit():
     """The clutch-and-brake scene with the clutch pressed by an input table that jumps at 0.5 s (not a
-    Step signal): the brake (no normal force) breaks away at 0.5 s exactly, as with the signal."""
-    m = mn.Model("drive")
-    motor = m.add(rot.Inertia(name="motor", J=0.1, phi_start=0.0, w_start=10.0))
-    load = m.add(rot.Inertia(name="load", J=0.3, phi_start=0.0, w_start=0.0))
-    clutch = m.add(rot.Clutch(name="clutch", fn_max=100.0, mu_k=0.3, mu_s=0.4, cgeo=0.1))
-    brake = m.add(rot.Brake(name="brake", fn_max=100.0, mu_k=0.5, mu_s=0.5, cgeo=0.1, f_normalized=0.0))
-    housing = m.add(rot.Fixed(name="housing"))
-    m.connect(motor.flange_b, clutch.flange_a)
-    m.connect(clutch.flange_b, load.flange_a)
-    m.connect(housing.flange, brake.flange_a)
-    m.connect(brake.flange_b, load.flange_b)
-    res = mn.compile(m).simulate(1.0, n_out=11, rtol=1e-10, atol=1e-12,
-                                 inputs={"clutch.f_normalized": ([0.0, 0.5, 0.5, 1.0], [0.0, 0.0, 1.0, 1.0])})
+    Step signal), the brake never pressed: the clutch starts sliding at 0.5 s exactly, as with the
+    signal, and the open brake makes no event and carries no torque."""
+    cm = _drive(brake_input=0.0)
+    res = cm.simulate(1.0, n_out=11, rtol=1e-10, atol=1e-12,
+                      inputs={"clutch.f_normalized": ([0.0, 0.5, 0.5, 1.0], [0.0, 0.0, 1.0, 1.0])})
     assert res.failure is None
-    state = {e.cause.split(" — ")[1]: e.t for e in res.events if e.kind == "state"}
-    assert state["brake breaks away"] == 0.5
+    state = _state_times(res)
+    assert state["clutch starts sliding"] == 0.5
     assert state["clutch sticks"] == pytest.approx(0.75, abs=1e-9)
+    assert not [e for e in res.events if e.cause.startswith("brake")]
+    assert np.all(res["brake.tau"] == 0.0)
 
 
 def test_a_tunable_stribeck_speed_of_zero_is_the_step_to_kinetic():

@@ -73,28 +73,53 @@ def kinetic(speed, coulomb, viscous, stribeck, v_stribeck):
 
 def friction_equations(v, a, f, sa, mode, impulse, f_kinetic, f_static):
     """Path form of friction: stuck a = 0, f = sa; sliding a = sa ∓ f_static, f = ±f_kinetic(|v|).
-    `impulse` adds to f (0 between events: the direction of the sticking jump)."""
-    stuck = mode == HELD
-    return [Eq(a, ca.if_else(stuck, 0.0, sa - mode * f_static), "relative acceleration on the friction path",
-               regular=True),
-            Eq(f, ca.if_else(stuck, sa, mode * f_kinetic) + impulse, "friction force on the friction path",
-               regular=True)]
+    `impulse` adds to f (0 between events: the direction of the sticking jump).
+
+    With no static limit (a clutch or brake not pressed: f_static = 0) nothing can hold, whatever the
+    mode: the element is open, a = sa, f = sign(v)·f_kinetic(|v|) (0 at rest, since f_kinetic(0) =
+    f_static: continuous through v = 0, so it needs no modes and makes no events). Counted as held, a
+    brake without normal force "held" the load until a clutch's torque broke it away, and the row of
+    that instant showed the torque it held."""
+    stuck, opened = mode == HELD, is_open(f_static)
+    return [Eq(a, ca.if_else(opened, sa, ca.if_else(stuck, 0.0, sa - mode * f_static)),
+               "relative acceleration on the friction path", regular=True),
+            Eq(f, ca.if_else(opened, ca.sign(v) * f_kinetic, ca.if_else(stuck, sa, mode * f_kinetic)) + impulse,
+               "friction force on the friction path", regular=True)]
+
+
+def is_open(f_static):
+    """No static limit: the element holds nothing (Modelica's `free`)."""
+    return f_static <= 0
 
 
 def friction_events(v, sa, mode, impulse, f_static, v_small, name):
     """Break away (at the start too, when already pushed past the limit), stick with a plastic jump, and
-    start sliding when the run begins with the surfaces moving (|v| > v_small)."""
-    stuck = mode == HELD
+    start sliding when the run begins with the surfaces moving (|v| > v_small) — all while the element
+    can hold (a static limit above 0). An open element (no limit) is kept in the held mode: a sliding
+    one whose limit falls to 0 opens, and when the limit rises again it starts sliding if it moves,
+    else it is held (`friction_equations`)."""
+    opened = is_open(f_static)
+    stuck = ca.logic_and(mode == HELD, ca.logic_not(opened))
     # v reaching 0 sticks (plastically: v is made exactly 0); v thrown across 0 by another element's
     # jump (a block rebounding off a stop) keeps it sliding, the other way
     thrown = ca.fabs(v) > v_small
     return [When(ca.if_else(stuck, ca.fabs(sa) - f_static, -1.0), reset={mode: ca.sign(sa)},
                  direction="rising", at_start=True, doc=f"{name} breaks away"),
-            When(ca.if_else(stuck, 1.0, mode * v), reset={mode: ca.if_else(thrown, ca.sign(v), HELD)},
+            When(ca.if_else(ca.logic_or(mode == HELD, opened), 1.0, mode * v),
+                 reset={mode: ca.if_else(thrown, ca.sign(v), HELD)},
                  jump={impulse: (v, ca.if_else(thrown, v, 0.0))}, release=False, direction="falling",
                  doc=f"{name} sticks"),
             When(ca.if_else(stuck, ca.fabs(v) - v_small, -1.0), reset={mode: ca.sign(v)},
-                 direction="rising", at_start=True, doc=f"{name} starts sliding")]
+                 direction="rising", at_start=True, doc=f"{name} starts sliding"),
+            When(ca.if_else(mode == HELD, 1.0, f_static), reset={mode: HELD}, direction="falling",
+                 doc=f"{name} opens")][: 3 if always_holds(f_static) else 4]
+
+
+def always_holds(f_static) -> bool:
+    """A static limit that is a positive number (folded parameters, no input): the element never opens
+    and needs no condition for it."""
+    limit = ca.SX(f_static)
+    return bool(limit.is_constant() and float(ca.DM(limit)) > 0)
 
 
 def smooth_friction_force(v, f_kinetic_at_speed, v_smooth):
@@ -196,8 +221,9 @@ class SwitchedFriction:
         the jump gave it."""
         if self.form() != "switched":
             return []
-        return [(self.mode, FORWARD, ca.logic_or(self.mode != HELD, ca.fabs(self.v_rel) <= self.v_small),
-                 ca.sign(self.v_rel))]
+        stays = ca.logic_or(ca.logic_or(self.mode != HELD, ca.fabs(self.v_rel) <= self.v_small),
+                            is_open(self._static_limit()))     # an open element stays in the held mode
+        return [(self.mode, FORWARD, stays, ca.sign(self.v_rel))]
 
     def events(self):
         if self.form() != "switched":

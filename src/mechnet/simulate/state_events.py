@@ -286,7 +286,7 @@ class StateEvents:
         dirs = np.array(self.dae.zero_directions)
         thrown = np.flatnonzero(_allowed(dirs, self._armed, sides) & ~on).tolist()
         if thrown:
-            self._fire(t, self.x, self.z, [int(h) for h in thrown])
+            self._fire(t, self.x, self.z, [int(h) for h in thrown], thrown=thrown)
         else:
             self._armed, self._armed_at = sides, t
 
@@ -521,12 +521,18 @@ class StateEvents:
         self._fire(t_e, x_e, z_e, fired or [int(crossed[0])])
         return t_e
 
-    def _fire(self, t_e, x_e, z_e, fired):
+    def _fire(self, t_e, x_e, z_e, fired, thrown=()):
         """Apply the transitions of `fired` at t_e (the left limit is recorded already), record the
         right limit and re-arm. Conditions the resets make cross fire at the same instant, in rounds
         (event iteration); a round repeating an earlier one (the same functions from the same state:
-        nothing would ever change) or more than MAX_CASCADE rounds is an accumulation: the run stops."""
-        once, seen, thrown = set(), set(), set()
+        nothing would ever change) or more than MAX_CASCADE rounds is an accumulation: the run stops.
+
+        The rows at t_e are the left and the right limit only: a round's row is replaced by the next
+        round's, since its modes are those of neither side (a brake held by a mode about to change
+        showed the torque it held). `thrown`: conditions a time event threw across (well past their
+        zero); the row of that time event holds the new inputs with the old modes and is replaced too."""
+        once, seen, thrown = set(), set(), set(thrown)
+        replace = bool(thrown)
         dirs = np.array(self.dae.zero_directions)
         near = None
         for _ in range(MAX_CASCADE + 1):
@@ -560,7 +566,8 @@ class StateEvents:
             self.x, self.d = x_now, d_now
             self.z = z_e = solve_algebraic(self.dae, t_e, self.x, z_e, u_e, self.p, self.d)
             x_e = self.x
-            self._record_at(t_e, self.x, self.z)
+            self._record_right_limit(t_e, replace)
+            replace = True
             for h in fired:
                 self.events.append(Event(float(t_e), "state", self.dae.zero_labels[h]))
             sides, on, by_rate = self._sides(t_e, self._rates(t_e, self.x, self.z), near)
@@ -586,7 +593,7 @@ class StateEvents:
             x_plus, d_plus = rests[i](t, self.x, self.z, u_t, self.p, self.d)
             self.x, self.d = np.asarray(x_plus, dtype=float).ravel(), np.asarray(d_plus, dtype=float).ravel()
             self.z = solve_algebraic(self.dae, t, self.x, self.z, u_t, self.p, self.d)
-            self._record_at(t, self.x, self.z)
+            self._record_right_limit(t, True)
             self.events.append(Event(float(t), "rest", f"{label} — {why}"))
             self._armed, _, _ = self._sides(t, self._rates(t, self.x, self.z))
             self._armed_at = t
@@ -598,6 +605,13 @@ class StateEvents:
             f"a stop or contact with a rest mode would come to rest here); the result holds the solution up "
             f"to there",
             t=float(t), step=float("nan"), worst=label, solver_message="event accumulation")
+
+    def _record_right_limit(self, t, replace):
+        """Record the state after a round of firings at t, in place of the last row when that row (at t)
+        is a state on neither side of the instant."""
+        if replace and len(self.rows) > 1 and self.rows.last.t == t:
+            self.rows.drop_last()
+        self._record(t)
 
     def _record_at(self, t, x, z):
         self.x, self.z = np.asarray(x, dtype=float).copy(), np.asarray(z, dtype=float).copy()
