@@ -48,11 +48,11 @@ def pushed_block():
     (lambda: tr.Friction(name="fr", fn=1.0, mu_k=-0.1), "fr.*mu_k"),
     (lambda: tr.SupportFriction(name="fr", F_Coulomb=-1.0), "fr.*F_Coulomb"),
     (lambda: rot.BearingFriction(name="bf", tau_Coulomb=1.0, tau_prop=-2.0), "bf.*tau_prop"),
-    (lambda: tr.Friction(name="fr", fn=1.0, mu_k=0.4, mu_s=0.3), "fr.*mu_s = 0.3 is below kinetic mu_k = 0.4"),
+    (lambda: tr.Friction(name="fr", fn=1.0, mu_k=0.4, mu_s=0.3), "fr.*mu_s = 0.3 is below mu_k = 0.4; mu_s must be >= mu_k"),
     (lambda: rot.Clutch(name="cl", fn_max=1.0, mu_k=0.4, mu_s=0.3), "cl.*mu_s"),
     (lambda: tr.Contact(name="c", e=1.5), r"c \(Contact\).*e = 1.5 must lie in \[0, 1\]"),
     (lambda: rot.HardStop(name="st", phi_min=0.0, phi_max=1.0, e=-0.1), "st.*e = -0.1 must lie in"),
-    (lambda: tr.HardStop(name="st", s_min=1.0, s_max=0.5), r"st \(HardStop\): limits reversed or equal: s_min = 1.0"),
+    (lambda: tr.HardStop(name="st", s_min=1.0, s_max=0.5), r"st \(HardStop\): s_max = 0.5 is not above s_min = 1; s_max must be > s_min \(limits reversed or equal\)"),
     (lambda: rot.HardStop(name="st", phi_min=0.2, phi_max=0.2), "st.*limits reversed or equal"),
 ])
 def test_bad_coefficients_are_refused_by_name(make, match):
