@@ -46,6 +46,7 @@ class MonitoredPieces:
         # pieces ending at a time event, or at the end of the run (a step exactly there takes effect after
         # the run), are judged at the left limits of the inputs and signals
         self._time_event_times = frozenset(event_at) | {float(grid[-1])}
+        self._run_span = float(grid[-1] - grid[0])
         longest = n_int
         per_piece = 1
         density = 4                                   # monitor points per output interval

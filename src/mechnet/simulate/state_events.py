@@ -23,6 +23,13 @@ independent of the output grid and the tolerance:
   on a change of sign only: one that merely leaves 0 (after resting there with
   ġ = g̈ = 0) has not crossed; a directional one leaving its boundary into its
   direction has.
+- **At rest on the boundary.** A function within the round-off of the states of its boundary (a few
+  ulps of each state at its scale, max(|x|, nominal)) whose rates would not take it out of that
+  within the run (|ġ|·T, |g̈|·T² below it) reads exactly 0 with rates 0 (`_at_rest`): it is on its
+  boundary and not moving, on no side. Two pendulums hanging at rest, touching, read angles of
+  1e-45 rad (the round-off of the scene's solve); their stop saw that wander across 0 as impacts,
+  rests and releases until the run stopped. So touching contacts follow one law whatever their
+  coordinates: impulses only where a contact closes, in cascade rounds at the instant.
 - **Excursions between monitor points.** g and ġ at both ends of each monitor
   interval define a cubic Hermite interpolant; its extrema inside the interval
   are checked too, so a whole excursion (down through zero and back) between
@@ -101,7 +108,14 @@ def zero_rates(dae) -> ca.Function:
     ż comes from differentiating alg = 0 (index 1: ∂alg/∂z is regular). Inputs are held constant
     (their rate is not known to the DAE). Built in SX (fast to evaluate) unless the DAE needs MX or
     holds many algebraic variables (a symbolic solve would swell); cached on the selection."""
-    return built(dae.info, "_zero_rates", lambda: _build_zero_rates(dae))
+    return built(dae.info, "_zero_rates", lambda: _build_zero_rates(dae))[0]
+
+
+def zero_rates_noise(dae) -> ca.Function:
+    """(t, x, z, u, p, d) -> [g, ġ, g̈, noise]: `zero_rates` and the round-off of g (a few ulps of each
+    state at its scale, max(|x|, nominal), through |∂g/∂x|, |∂g/∂z|), in one call: every evaluation
+    of the rates during a run needs both (`StateEvents._rates`)."""
+    return built(dae.info, "_zero_rates", lambda: _build_zero_rates(dae))[1]
 
 
 def zero_sensitivity(dae) -> ca.Function:
@@ -146,7 +160,13 @@ def _zero_rates(dae, sym):
 
     g = dae.zero(*args)
     gd = lie(g)
-    return ca.Function("zero_rates", args, [ca.densify(ca.vertcat(g, gd, lie(gd)))])
+    rates = ca.densify(ca.vertcat(g, gd, lie(gd)))
+    eps = 4 * np.finfo(float).eps
+    noise = ca.mtimes(ca.fabs(ca.jacobian(g, x)), eps * ca.fmax(ca.fabs(x), ca.DM(dae.x_nominal)))
+    if z.numel():
+        noise = noise + ca.mtimes(ca.fabs(ca.jacobian(g, z)), eps * ca.fmax(ca.fabs(z), ca.DM(dae.z_nominal)))
+    return (ca.Function("zero_rates", args, [rates]),
+            ca.Function("zero_rates_noise", args, [ca.densify(ca.vertcat(rates, noise))]))
 
 
 def _cubic_extrema(g_a, d_a, g_b, d_b, h):
@@ -189,6 +209,15 @@ def _leaving(g, gd, noise, dirs):
     reads a gap of exactly 0 for its first 2e-13 m, and a cubic through those zeros with slope 1 dips
     below them; found as crossings, they fired impacts on a separating contact."""
     return np.where((np.abs(g) <= noise) & (dirs != 0) & (np.sign(gd) == -dirs), np.sign(gd) * 1e-300, g)
+
+
+def _at_rest(g, gd, gdd, noise, horizon):
+    """(g, ġ, g̈) with exact zeros for the functions at rest on their boundary: g within its round-off
+    (`noise`) and its rates too small to move it out of that within the run (|ġ|·T, |g̈|·T² ≤ noise).
+    Such a function (two touching pendulums hanging at rest) has no side to be on: its round-off
+    wandering across 0 is no crossing. Works on arrays of points (functions in the last axis)."""
+    rest = (np.abs(g) <= noise) & (np.abs(gd) * horizon <= noise) & (np.abs(gdd) * horizon ** 2 <= noise)
+    return np.where(rest, 0.0, g), np.where(rest, 0.0, gd), np.where(rest, 0.0, gdd)
 
 
 def _hermite_root(t_a, g_a, d_a, t_b, g_b, d_b):
@@ -243,28 +272,32 @@ class StateEvents:
     _resolution = ()         # (t, time resolution of each function's event there): `_time_resolution`
 
     def _rates(self, t, x, z, left=False):
-        """g, ġ, g̈ at (t, x, z); `left`: at a time event, the left limit of the inputs and signals."""
+        """g, ġ, g̈ at (t, x, z), exactly 0 where a function rests on its boundary within round-off
+        (`_at_rest`); `left`: at a time event, the left limit of the inputs and signals."""
         if left and t in getattr(self, "_time_event_times", ()):
             t = np.nextafter(t, -np.inf)
-        rates = built(self.dae.info, "_zero_rates_numpy", lambda: NumpyCall(zero_rates(self.dae)))
+        rates = built(self.dae.info, "_zero_rates_numpy", lambda: NumpyCall(zero_rates_noise(self.dae)))
         out = rates(np.atleast_1d(float(t)), np.atleast_1d(np.asarray(x, dtype=float)),
                     np.atleast_1d(np.asarray(z, dtype=float)), np.atleast_1d(np.asarray(self._u_at(t), dtype=float)),
                     np.atleast_1d(self.p), np.atleast_1d(self.d))[0]
-        return np.asarray(out).ravel().reshape(3, -1)
+        g, gd, gdd, noise = np.asarray(out).ravel().reshape(4, -1)
+        return np.stack(_at_rest(g, gd, gdd, noise, self._horizon()))
+
+    def _horizon(self):
+        """The run's length (s): how long a function at rest on its boundary must stay within round-off."""
+        return getattr(self, "_run_span", 1.0)
 
     def _round_off(self, t, x, z):
         """How far each zero function may sit from its value by the round-off of the states alone (a few
-        ulps of each |x|, |z|, through ∂g/∂x, ∂g/∂z): what it cannot resolve whatever the tolerance."""
-        sensitivity = built(self.dae.info, "_zero_sensitivity_numpy", lambda: NumpyCall(zero_sensitivity(self.dae)))
-        jx, jz = sensitivity(np.atleast_1d(float(t)), np.atleast_1d(np.asarray(x, dtype=float)),
-                             np.atleast_1d(np.asarray(z, dtype=float)),
-                             np.atleast_1d(np.asarray(self._u_at(t), dtype=float)), np.atleast_1d(self.p),
-                             np.atleast_1d(self.d))
-        eps = 4 * np.finfo(float).eps
-        out = np.abs(np.asarray(jx)) @ (eps * np.abs(np.asarray(x, dtype=float)))
-        if np.size(z):
-            out = out + np.abs(np.asarray(jz)) @ (eps * np.abs(np.asarray(z, dtype=float)))
-        return np.asarray(out, dtype=float).ravel()
+        ulps of each state at its scale, max(|x|, nominal), through ∂g/∂x, ∂g/∂z): what it cannot
+        resolve whatever the tolerance. At its scale, not its value: pendulums hanging at rest read
+        angles of 1e-45 rad, the round-off of the scene's solve, and contacts between them saw those
+        cross zero."""
+        rates = built(self.dae.info, "_zero_rates_numpy", lambda: NumpyCall(zero_rates_noise(self.dae)))
+        out = rates(np.atleast_1d(float(t)), np.atleast_1d(np.asarray(x, dtype=float)),
+                    np.atleast_1d(np.asarray(z, dtype=float)), np.atleast_1d(np.asarray(self._u_at(t), dtype=float)),
+                    np.atleast_1d(self.p), np.atleast_1d(self.d))[0]
+        return np.asarray(out).ravel().reshape(4, -1)[3]
 
     def _left_of_time_events(self, pts):
         """A piece ending at a time event is judged by its conditions' left limits there (a clutch
@@ -335,11 +368,11 @@ class StateEvents:
         function may move by at most half its size on the piece per interval, to first and second
         order: Δ·|ġ| ≤ s/2 and Δ²·|g̈| ≤ s/4, s = max |g| on the piece (inf when no function moves)."""
         n = pts.size
-        rates = mapped_in(self.dae.info.setdefault("_zero_rate_maps", {}), zero_rates(self.dae), n)
+        rates = mapped_in(self.dae.info.setdefault("_zero_rate_maps", {}), zero_rates_noise(self.dae), n)
         R = rates(pts.reshape(1, -1), xs.T, zs.T, self._inputs_at(pts), np.tile(self.p.reshape(-1, 1), n),
                   np.tile(self.d.reshape(-1, 1), n))[0]
         m = len(self.dae.zero_labels)
-        G, D, A = np.abs(R[:m]), np.abs(R[m: 2 * m]), np.abs(R[2 * m:])
+        G, D, A = np.abs(R[:m]), np.abs(R[m: 2 * m]), np.abs(R[2 * m: 3 * m])
         size = np.max(G, axis=1, keepdims=True)
         with np.errstate(divide="ignore", invalid="ignore"):
             first = np.where(D > 0, 0.5 * size / D, np.inf)
@@ -360,14 +393,14 @@ class StateEvents:
         n = pts.size if limit is None else limit + 1
         judged = self._left_of_time_events(pts[:n])      # inputs and signals at their left limits too
         U = self._inputs_at(judged)
-        rates = mapped_in(self.dae.info.setdefault("_zero_rate_maps", {}), zero_rates(self.dae), n)
+        rates = mapped_in(self.dae.info.setdefault("_zero_rate_maps", {}), zero_rates_noise(self.dae), n)
         R = rates(judged.reshape(1, -1), xs[:n].T, zs[:n].T, U,
                   np.tile(self.p.reshape(-1, 1), n),
                   np.tile(self.d.reshape(-1, 1), n))[0]
         m = len(self.dae.zero_labels)
-        G, D = R[:m].T, R[m: 2 * m].T                   # (n, m)
         dirs = np.array(self.dae.zero_directions)
-        noise = self._round_off(pts[0], xs[0], zs[0])
+        noise = R[3 * m:, 0]                            # the round-off of g at the piece's start
+        G, D, _ = _at_rest(R[:m].T, R[m: 2 * m].T, R[2 * m: 3 * m].T, R[3 * m:].T, self._horizon())   # (n, m)
         G = _leaving(G, D, noise, dirs)
         # the side at each point: its sign; at the start the armed side where it was set at that very time
         # (just after an event g may be a round-off on either side) or where g is exactly 0
