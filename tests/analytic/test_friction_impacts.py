@@ -469,8 +469,8 @@ PC_PERIOD = 2 * np.pi * np.sqrt(PC_J / (M_SPHERE * G * PC_L))   # small swings (
 
 def _pendulum_cradle():
     """Five pendulums (0.2 kg at L = 1 m on revolutes about z, 5 cm apart, g along −y) with rotational
-    hard stops (e = 1) between neighbouring joints' flanges: phi_rel = φ_{i+1} − φ_i ≥ 0. The first is released from −A at rest, the others
-    hang at rest touching each other."""
+    hard stops (e = 1) between neighbouring joints' flanges: phi_rel = φ_{i+1} − φ_i ≥ 0. The first is
+    released from −A at rest, the others hang at rest touching each other."""
     from mechnet.components import multibody as mb
     m = mn.Model("pendulum_cradle")
     world = m.add(mb.World(name="world", g=[0.0, -G, 0.0]))
