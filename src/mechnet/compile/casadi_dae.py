@@ -220,15 +220,16 @@ def _requirements(original, flat, symbols, current, args, survivor, aliases):
 
 def _quaternion_states(original, variables, x_index, x):
     """The quaternions among the states: their indices in x (the simulator renormalises them at every
-    restart), |Q| − 1 as invariants, and those invariants' names. A quaternion must be states whole."""
+    restart), |Q| − 1 as invariants, and those invariants' names. Only quaternions kept as states whole."""
     position = {variables[i].name: k for k, i in enumerate(x_index)}
     groups, norms, names = [], [], []
     for what, members in original.unit_quaternions:
         if not all(n in position for n in members):
-            missing = [n for n in members if n not in position]
-            raise StructureError(f"{what.split(':')[0]}: the quaternion {', '.join(missing)} is not a state; "
-                                 f"a spherical or free joint's orientation cannot be constrained by other "
-                                 f"equations (a kinematic loop through it, or a prescribed orientation)")
+            # a user's constraints on the orientation (a body guided about a line) solve part of it:
+            # R uses Q/|Q| and those constraints hold R, so they are blind to |Q|, and the quaternion
+            # kinematics' pull keeps |Q| near 1; scaling only the states at a restart would leave the
+            # solved part behind, so it is not renormalised and |Q| − 1 is not an invariant
+            continue
         index = tuple(position[n] for n in members)
         groups.append(index)
         norms.append(ca.sqrt(ca.sumsqr(ca.vertcat(*[x[k] for k in index]))) - 1)

@@ -93,6 +93,7 @@ class _Graph:
         index = {v.symbol.element_hash(): i for i, v in enumerate(flat.variables)}
         self.inc = [sorted({index[s.element_hash()] for s in ca.symvar(eq.residual)
                             if s.element_hash() in index}) for eq in flat.equations]
+        self.hidden = _Hidden(flat, index)
         self.diff = {}            # equation -> its derivative equation
         self.parent = {}          # derivative equation -> the equation it was differentiated from
         self.assign = {}          # variable -> equation matched to it
@@ -108,6 +109,9 @@ class _Graph:
         return j
 
     def differentiate(self, e: int) -> int:
+        # what the equation holds through the tree's intermediates (the coordinates and speeds behind a
+        # frame's R and r_0) matters once it is differentiated: its derivative holds their rates
+        self.inc[e] = sorted(set(self.inc[e]) | self.hidden.behind(e))
         for v in self.inc[e]:
             if self.kind[v] != "input" and v not in self.der and v not in self.known_rate:
                 self.new_variable(v)
@@ -197,6 +201,56 @@ class _Graph:
             return False
         self.assign = {unknowns[k]: e for e, k in matched.items()}
         return True
+
+
+class _Hidden:
+    """The variables an original equation depends on through the tree's intermediates.
+
+    A user's element that holds a frame's orientation R (an intermediate of the joint coordinates)
+    depends on those coordinates; Pantelides must see them when it differentiates the element, or the
+    derivatives lose every term through R (a point held on a body moved wrongly). Found only for the
+    equations Pantelides differentiates: the tree's own equations use thousands of intermediates and
+    are differentiated rarely (the intermediates are all state-only, which matching ignores)."""
+
+    def __init__(self, flat: FlatSystem, index: dict):
+        self.flat, self.index = flat, index
+        syms, _ = flat.intermediates
+        self.position = {s.element_hash(): k for k, s in enumerate(syms)}
+        self.deps: dict = {}                     # intermediate position -> frozenset of variables
+
+    def behind(self, e: int) -> set:
+        if e >= len(self.flat.equations) or not self.position:
+            return set()                         # a derivative inherits its parent's (widened) row
+        out = set()
+        for k in self._resolve(self.flat.equations[e].residual):
+            out |= self.deps[k]
+        return out
+
+    def _resolve(self, expr) -> list:
+        """The positions of the intermediates in expr, each with its `deps` filled in (definitions refer
+        only to intermediates before them: filled in increasing order, no recursion)."""
+        direct = [self.position[s.element_hash()] for s in ca.symvar(expr) if s.element_hash() in self.position]
+        needed, stack = set(), [k for k in direct if k not in self.deps]
+        defs = self.flat.intermediates[1]
+        while stack:
+            k = stack.pop()
+            if k in needed:
+                continue
+            needed.add(k)
+            stack.extend(j for j in self._inner(defs[k]) if j not in self.deps and j not in needed)
+        for k in sorted(needed):
+            deps = set()
+            for s in ca.symvar(defs[k]):
+                h = s.element_hash()
+                if h in self.index:
+                    deps.add(self.index[h])
+                elif h in self.position:
+                    deps |= self.deps[self.position[h]]
+            self.deps[k] = frozenset(deps)
+        return direct
+
+    def _inner(self, definition) -> list:
+        return [self.position[s.element_hash()] for s in ca.symvar(definition) if s.element_hash() in self.position]
 
 
 def _order(graph: _Graph, e: int) -> int:
@@ -503,11 +557,18 @@ def expand_unless_states(flat: FlatSystem) -> FlatSystem:
 
 def _differentiate(source: FlatEquation, flat, graph, parent, symbols, derivative_expr, order) -> FlatEquation:
     r = source.residual
-    incidence = graph.inc[parent]
     if flat.uses_intermediates(r):        # differentiate what the intermediates stand for
         r = flat.expand([r])[0]
-        where = {s.element_hash(): v for v, s in enumerate(symbols)}
-        incidence = sorted({where[s.element_hash()] for s in ca.symvar(r) if s.element_hash() in where})
+    # every variable the expression holds, not the structural row: a row that missed one would drop
+    # its terms from the derivative silently
+    where = {s.element_hash(): v for v, s in enumerate(symbols)}
+    incidence = sorted({where[s.element_hash()] for s in ca.symvar(r) if s.element_hash() in where})
+    missing = [v for v in incidence if graph.kind[v] != "input" and v not in derivative_expr]
+    if missing:
+        raise StructureError(
+            f"internal: {source.describe()} is differentiated, but the structural analysis did not see "
+            f"{', '.join(flat.variables[v].name if v < len(flat.variables) else symbols[v].name() for v in missing)} "
+            f"in it")
     vs, ds = [flat.time], [ca.SX(1.0)]
     for v in incidence:
         if graph.kind[v] == "input":

@@ -200,9 +200,12 @@ class FreeMotion(_Rotation3D):
     orientation and angular velocity as in Spherical (r_rel_start, v_rel_start fix the translation)."""
 
     dof = 6
-    r_rel = State(shape=3, unit="m", priority="always", doc="position of frame_b's origin from frame_a's, "
+    # "prefer", a step below the rotation's "always": where a user's constraint holds a point of the body,
+    # the position is solved from it before any part of the quaternion is (dummy derivatives take the
+    # lower priority first), so a held point leaves Q and w_rel the states, as a ball joint has them
+    r_rel = State(shape=3, unit="m", priority="prefer", doc="position of frame_b's origin from frame_a's, "
                                                             "resolved in frame_a")
-    v_rel = State(shape=3, unit="m/s", priority="always", doc="der(r_rel): velocity of frame_b's origin "
+    v_rel = State(shape=3, unit="m/s", priority="prefer", doc="der(r_rel): velocity of frame_b's origin "
                                                               "relative to frame_a, resolved in frame_a")
 
     def relative_motion(self):
