@@ -264,3 +264,55 @@ def test_an_fmu_refuses_mu_s_below_mu_k_at_the_end_of_initialisation(friction, t
     assert "fr (Friction): mu_s must be >= mu_k" in text and "0.1 and 0.2" in text
     res = fmpy.simulate_fmu(str(path), stop_time=0.5, fmi_type="ModelExchange", start_values={"fr.mu_s": 0.4})
     assert res["time"][-1] == pytest.approx(0.5)          # guard: a value that keeps it runs
+
+
+def test_an_fmu_refuses_a_broken_tuning_in_event_mode_whole(friction, tmp_path):
+    """In event mode a call that sets mu_s below mu_k, or sets it and then fails on a variable that cannot
+    be set, or sets a parameter to NaN, is refused whole: mu_s keeps its value (FMI 2 ME through FMPy)."""
+    pytest.importorskip("fmpy", reason="fmpy (extra 'test') runs FMUs")
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Model
+    from mechnet.export.files import compiler
+    if compiler() is None:
+        pytest.skip("no C compiler to build the FMU")
+    path = friction.export(tmp_path / "fr.fmu", kind="fmu")
+    md = read_model_description(str(path))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    calculated = vr["mass.a"]                            # an acceleration: calculated, never set
+    fmu = FMU2Model(guid=md.guid, unzipDirectory=extract(str(path)),
+                    modelIdentifier=md.modelExchange.modelIdentifier, instanceName="fr")
+    fmu.instantiate(loggingOn=False)
+    try:
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()                     # now in event mode
+        before = fmu.getReal([vr["fr.mu_s"]])[0]
+        for refs, values in (([vr["fr.mu_s"]], [0.1]),                      # below mu_k = 0.2
+                             ([vr["fr.mu_s"], calculated], [0.5, 1.0]),      # then a variable it cannot set
+                             ([vr["fr.mu_s"]], [float("nan")])):
+            with pytest.raises(Exception):
+                fmu.setReal(refs, values)
+            assert fmu.getReal([vr["fr.mu_s"]])[0] == before
+        fmu.setReal([vr["fr.mu_s"]], [0.5])              # guard: a value that keeps the requirement is taken
+        assert fmu.getReal([vr["fr.mu_s"]])[0] == 0.5
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
+
+
+def test_a_loaded_export_calls_nothing_but_parameter_checks(stops, tmp_path):
+    """model.json names each parameter's check; `load` calls only functions marked as parameter checks of
+    modules mechnet has loaded: a file that names another function (here mechnet.cli's main) gets a
+    parameter that must only be finite, and the function is never called."""
+    import json
+
+    from mechnet.export import load
+    stops.export(tmp_path / "stops", kind="casadi")
+    record = json.loads((tmp_path / "stops" / "model.json").read_text())
+    entry = next(v for v in record["p"] if v["name"] == "stop.e")
+    assert entry["check"] == "mechnet.components.switched:restitution"
+    entry["check"] = "mechnet.cli:main"
+    (tmp_path / "stops" / "model.json").write_text(json.dumps(record))
+    loaded = load(tmp_path / "stops")
+    declaration, _ = loaded.dae.info["parameter_checks"]["stop.e"]
+    assert declaration is None

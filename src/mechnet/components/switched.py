@@ -31,6 +31,7 @@ from contextvars import ContextVar
 
 import casadi as ca
 
+from ..core.declarations import parameter_check
 from ..core.equation import Eq, When, der
 from ..core.requirements import Requirement
 
@@ -162,6 +163,7 @@ def release_event(sa, mode, name):
                 doc=f"{name} lets go")
 
 
+@parameter_check
 def restitution(value):
     """The check of a coefficient of restitution (a Param check: also where it is tuned at run time)."""
     return None if 0.0 <= value <= 1.0 else "must lie in [0, 1] (0 plastic, 1 elastic)"

@@ -41,22 +41,34 @@ def finite_number(value, what: str, error=ParameterError) -> float:
 
 # ---- parameter checks: each returns an error text or None ---------------------------------
 
+def parameter_check(fn):
+    """Marks a function as a parameter check. A loaded export names its parameters' checks, and `load`
+    calls only functions marked so: a model file cannot make it call anything else in mechnet."""
+    fn.is_parameter_check = True
+    return fn
+
+
+@parameter_check
 def positive(value) -> Optional[str]:
     return None if value > 0 else "must be > 0"
 
 
+@parameter_check
 def nonnegative(value) -> Optional[str]:
     return None if value >= 0 else "must be >= 0"
 
 
+@parameter_check
 def nonzero(value) -> Optional[str]:
     return None if value != 0 else "must be non-zero"
 
 
+@parameter_check
 def any_finite(value) -> Optional[str]:
     return None
 
 
+@parameter_check
 def direction(value) -> Optional[str]:
     """An axis: any finite vector but zero (its length does not matter; `unit_vector` normalises it)."""
     return None if np.max(np.abs(value)) > 0 else "must not be the zero vector (it gives a direction)"

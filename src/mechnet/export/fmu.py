@@ -143,6 +143,8 @@ def requirement_table(meta: dict) -> str:
         out += _c_array("int", f"mn_req_{side}", (i for i, _ in sides[side]))
         out += _c_array("double", f"mn_req_{side}_value", (v for _, v in sides[side]))
     out += _c_array("int", "mn_req_strict", (int(e["op"] == ">") for e in entries))
+    out += (f"static const char *const mn_p_names[{max(len(meta['p']), 1)}] = "
+            f"{{{', '.join(_c_string(v['name']) for v in meta['p']) or '0'}}};\n")
     texts = [f"{e['owner']}: {e['lhs'].rsplit('.', 1)[-1]} must be {e['op']} {e['rhs'].rsplit('.', 1)[-1]} "
              f"({e['why']})" for e in entries]
     return out + (f"static const char *const mn_req_text[{max(len(texts), 1)}] = "

@@ -1,7 +1,7 @@
 """`mechnet.export.load(path)`: an exported model back, without the scene code that built it."""
 from __future__ import annotations
 
-import importlib
+import sys
 import json
 import warnings
 from pathlib import Path
@@ -113,14 +113,16 @@ def _dae(record: dict, fns: dict) -> SemiExplicitDAE:
 def _declaration(entry: dict):
     """A parameter's check as the scene declared it (by the name of one of core/declarations.py's checks,
     or "module:name" of one elsewhere in mechnet: `contract._check`), so a new value is refused as it was
-    before export; None when the check was the user's own function (a new value must then be finite)."""
+    before export; None when the check was the user's own function (a new value must then be finite), or
+    names anything that is not a parameter check of a module mechnet has loaded."""
     from ..core import declarations
     where = entry.get("check") or ""
     module, _, name = where.rpartition(":")
     if module and not module.startswith("mechnet."):
         return None
-    check = getattr(importlib.import_module(module) if module else declarations, name, None)
-    if not callable(check):
+    # nothing is imported on the file's word, and only a function marked as a parameter check is called
+    check = getattr(sys.modules.get(module) if module else declarations, name, None)
+    if not callable(check) or not getattr(check, "is_parameter_check", False):
         return None
     decl = declarations.Param(entry["value"], unit=entry["unit"], doc=entry.get("doc", ""), check=check)
     decl.name = entry["name"].rsplit(".", 1)[-1]

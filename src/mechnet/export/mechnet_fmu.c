@@ -367,6 +367,8 @@ static int set_real(Instance *m, const uint32_t *vr, size_t n, const double *val
             logf_(m, ST_ERROR, "logStatusError", "variable with value reference %u cannot be set %s", r,
                   before_init ? "(it is calculated)" : "after initialisation (only inputs, and tunable parameters in "
                   "event mode)");
+            if (m->mode == MODE_EVENT)          /* tunables changed in event mode: the call is refused whole */
+                memcpy(m->p, p_before, sizeof(double) * MN_NP);
             if (i) changed(m);                  /* the values before it were taken */
             return ST_ERROR;
         }
@@ -428,6 +430,11 @@ static int enter_event_mode(Instance *m) {
  * tables of model_data.h): ST_ERROR naming the first one the parameter values break */
 static int check_parameters(Instance *m) {
     int k;
+    for (k = 0; k < MN_NP; k++) {
+        if (isfinite(m->p[k])) continue;
+        logf_(m, ST_ERROR, "logStatusError", "parameter %s = %g is not finite", mn_p_names[k], m->p[k]);
+        return ST_ERROR;
+    }
     for (k = 0; k < MN_NR; k++) {
         double a = mn_req_lhs[k] >= 0 ? m->p[mn_req_lhs[k]] : mn_req_lhs_value[k];
         double b = mn_req_rhs[k] >= 0 ? m->p[mn_req_rhs[k]] : mn_req_rhs_value[k];

@@ -5,13 +5,15 @@ import casadi as ca
 import numpy as np
 
 from ...core.component import Component
-from ...core.declarations import Flag, Param, Port, direction, nonnegative, positive, unit_vector
+from ...core.declarations import (Flag, Param, Port, direction, nonnegative, parameter_check, positive,
+                                  unit_vector)
 from ...core.errors import ParameterError
 from ...inertia import inertia_problem
 from .frames import axis_rotation
 from .interfaces import Frame, PartialBody, PartialTreeEdge
 
 
+@parameter_check
 def physical_inertia(value):
     """must be a physical inertia tensor (symmetric, positive semi-definite, triangle inequality)
 
