@@ -187,6 +187,27 @@ def test_a_brake_without_normal_force_holds_nothing_until_it_is_pressed():
     assert np.max(np.abs(res["load.w"][after])) <= 1e-12 and np.max(np.abs(res["motor.w"][after])) <= 1e-12
 
 
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_a_brake_pressed_on_a_moving_disc_starts_sliding_without_breaking_away(sign):
+    """A disc (J = 1 kg·m², ±5 rad/s) driven by ∓8 N·m; its brake (kinetic 0.5·0.1·100 = 5 N·m, static 6)
+    is pressed at 0.1 s while the disc turns: the one state event is "starts sliding" (no breakaway, which
+    is for a still element), and the disc then decelerates at ∓13 rad/s² (within 1e-9 at rtol 1e-10)."""
+    m = mn.Model("pressed")
+    disc = m.add(rot.Inertia(name="disc", J=1.0, phi_start=0.0, w_start=5.0 * sign))
+    drive = m.add(rot.ConstantTorque(name="drive", tau_constant=-8.0 * sign))
+    brake = m.add(rot.Brake(name="brake", fn_max=100.0, cgeo=0.1, mu_k=0.5, mu_s=0.6,
+                            f_normalized=Step(1.0, start_time=0.1)))
+    housing = m.add(rot.Fixed(name="housing"))
+    m.connect(drive.flange, disc.flange_a)
+    m.connect(housing.flange, brake.flange_a)
+    m.connect(brake.flange_b, disc.flange_b)
+    res = m.compile().simulate(0.3, t_out=[0.0, 0.1, 0.2, 0.25, 0.3], rtol=1e-10, atol=1e-12)
+    assert [(e.t, e.cause.split(" — ")[-1]) for e in res.events if e.kind == "state"] == \
+        [(0.1, "brake starts sliding")]
+    w = res["disc.w"]
+    assert (w[3] - w[2]) / 0.05 == pytest.approx(-13.0 * sign, abs=1e-9)
+
+
 def test_the_clutch_brake_example_shows_no_brake_torque_before_the_brake_is_pressed():
     """examples/clutch_brake.py at its own settings (301 rows, rtol 1e-10): brake.tau is 0 on every row
     before 2 s and no brake event is listed before 2 s (issue 31, item 2)."""

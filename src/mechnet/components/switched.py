@@ -104,7 +104,9 @@ def friction_events(v, sa, mode, impulse, f_static, v_small, name):
     # v reaching 0 sticks (plastically: v is made exactly 0); v thrown across 0 by another element's
     # jump (a block rebounding off a stop) keeps it sliding, the other way
     thrown = ca.fabs(v) > v_small
-    return [When(ca.if_else(stuck, ca.fabs(sa) - f_static, -1.0), reset={mode: ca.sign(sa)},
+    # only a still element breaks away: one pressed while its surfaces move starts sliding instead
+    still = ca.logic_and(stuck, ca.logic_not(thrown))
+    return [When(ca.if_else(still, ca.fabs(sa) - f_static, -1.0), reset={mode: ca.sign(sa)},
                  direction="rising", at_start=True, doc=f"{name} breaks away"),
             When(ca.if_else(ca.logic_or(mode == HELD, opened), 1.0, mode * v),
                  reset={mode: ca.if_else(thrown, ca.sign(v), HELD)},
