@@ -178,7 +178,7 @@ def linearize(cm, x_op=None, u_op=None, *, t: Optional[float] = None, params: Op
 
     x = _state_values(dae, x_given, "linearize(x_op=...)")
     u = _input_values(dae, u_given, "linearize(u_op=...)")
-    p = _resolve_params(dae, p_given)
+    p = _resolve_params(dae, p_given, "linearize")
     d = np.array(dae.d_value, dtype=float).reshape(-1)
     if dae.z.numel():
         for name in z_given:
@@ -276,7 +276,7 @@ def trim(cm, *, inputs: Optional[dict] = None, fixed: Optional[dict] = None, fre
             f"input(s) ({', '.join(free_inputs) or 'none'}); the steady-state system is square only with one "
             f"free input per fixed value")
     u0 = _input_values(dae, inputs, "trim(inputs=...)")
-    p = _resolve_params(dae, params)
+    p = _resolve_params(dae, params, "trim")
     d = np.array(dae.d_value, dtype=float).reshape(-1)
     unknown_names = list(dae.x_names) + list(dae.z_names) + list(free_inputs)
     for name in guess:

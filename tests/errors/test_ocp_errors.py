@@ -205,3 +205,32 @@ def test_a_fixed_parameter_outside_its_bounds_is_refused():
     prob = ocp.Problem(double_integrator(m=mn.tunable(1.0)).compile(), t_final=1.0)
     with pytest.raises(ocp.OcpError, match="free it with prob.free_parameter"):
         prob.bounds("mass.m", 2.0, 3.0)
+
+
+def _pushed_block():
+    """A 1 kg block pushed by the input push.f over a surface with tunable mu_k = 0.2, mu_s = 0.3."""
+    from mechnet.components import translational as tr
+    m = mn.Model("pushed_block")
+    mass = m.add(tr.Mass(name="mass", m=1.0, s_start=0.0, v_start=0.0))
+    push = m.add(tr.Force(name="push"))
+    ground = m.add(tr.Fixed(name="ground"))
+    fr = m.add(tr.Friction(name="fr", fn=9.81, mu_k=mn.tunable(0.2), mu_s=mn.tunable(0.3)))
+    m.connect(push.flange, mass.flange_a)
+    m.connect(ground.flange, fr.flange_a)
+    m.connect(fr.flange_b, mass.flange_b)
+    return m.compile()
+
+
+def test_a_problems_parameters_meet_the_requirements_between_them():
+    """params= of a Problem is checked as simulate's (mu_s below mu_k was accepted), and a freed mu_s
+    is kept at or above mu_k by a constraint: minimising it ends at mu_k = 0.2 (within IPOPT's 1e-6),
+    not at its lower bound 0."""
+    cm = _pushed_block()
+    with pytest.raises(mn.ParameterError, match=r"Problem\(params=\.\.\.\): fr \(Friction\): mu_s = 0\.1 is below"):
+        ocp.Problem(cm, t_final=1.0, params={"fr.mu_s": 0.1})
+    prob = ocp.Problem(cm, t_final=1.0)
+    prob.free_parameter("fr.mu_s", 0.0, 1.0)
+    prob.bounds("push.f", -5.0, 5.0)
+    prob.minimize(prob.var("fr.mu_s") + prob.integral(prob.var("push.f") ** 2))
+    sol = prob.solve(ocp.Collocation(N=10))
+    assert sol.success and sol.params["fr.mu_s"] == pytest.approx(0.2, abs=1e-6)

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..core.declarations import finite_number, not_a_number
 from ..core.errors import OcpError
+from ..simulate.integrator import _resolve_params
 from ..simulate.result import unknown_name
 
 
@@ -94,6 +95,8 @@ class Problem:
         self.p_value = np.array(self.dae.p_value, dtype=float)
         for name, value in (params or {}).items():
             self.p_value[self._parameter(name)] = finite_number(value, f"params[{name!r}]", OcpError)
+        if params:      # each value's check and the requirements between parameters, as in simulate
+            self.p_value = _resolve_params(self.dae, dict(params), "Problem")
         self.free_params: dict[str, tuple[float, float]] = {}
         self._vars: dict[str, ca.SX] = {}
         self._boundary: dict[str, tuple[str, ca.SX]] = {}      # placeholder -> (start|end|integral, path expr)

@@ -163,7 +163,23 @@ class Transcription:
                 raise OcpError(f"parameter {name}: free_parameter and bounds leave no value ({lo:g} > {hi:g})")
             values[k] = nlp.variable(f"p_{name}", 1, min(max(prob.p_value[k], lo), hi), lo, hi,
                                      max(abs(prob.p_value[k]), 1.0))
+        self._requirements(prob, nlp, values)
         return ca.vertcat(*values) if values else ca.MX(0, 1)
+
+    @staticmethod
+    def _requirements(prob: Problem, nlp: Nlp, values: list) -> None:
+        """The requirements between parameters (mu_s >= mu_k, a stop's limits in order) that hold a freed
+        one, as constraints lhs − rhs >= 0 (a strict one as well: IPOPT cannot keep a strict inequality,
+        and the boundary value is one the model runs with)."""
+        names = prob.dae.p_names
+        for entry in prob.dae.info.get("parameter_requirements", ()):
+            sides = [entry[f"{s}_value"] if entry[f"{s}_value"] is not None else entry[s] for s in ("lhs", "rhs")]
+            if not any(isinstance(v, str) and v in prob.free_params for v in sides):
+                continue
+            lhs, rhs = (values[names.index(v)] if isinstance(v, str) else ca.MX(v) for v in sides)
+            nlp.constrain(lhs - rhs, 0.0, np.inf,
+                          f"{entry['owner']}: {entry['lhs'].rsplit('.', 1)[-1]} {entry['op']} "
+                          f"{entry['rhs'].rsplit('.', 1)[-1]}", 0.0)
 
     def start(self, prob: Problem, guess, shares, node_points) -> Layout:
         """The NLP both transcriptions build on: final time, parameters, and the controls (bounded, rate

@@ -290,10 +290,11 @@ def _check_value(value, what: str) -> float:
     return finite_number(value, what, InitializationError)
 
 
-def _resolve_params(dae, given: dict | None) -> np.ndarray:
+def _resolve_params(dae, given: dict | None, entry: str = "simulate") -> np.ndarray:
     """The parameter vector of a run: the compiled values with `given` over them, each new value checked
     as at construction (its Param's check, then the requirements between parameters, which a new value
-    could break: `core/requirements.py`); a value no check is known for must still be finite."""
+    could break: `core/requirements.py`); a value no check is known for must still be finite. `entry`
+    names the call the values came through (simulate, linearize, trim, Problem)."""
     values = np.array(dae.p_value, dtype=float)
     checks = dae.info.get("parameter_checks", {})
     for name, value in (given or {}).items():
@@ -308,13 +309,13 @@ def _resolve_params(dae, given: dict | None) -> np.ndarray:
             try:
                 values[dae.p_names.index(name)] = declaration.validate(owner, value)
             except ParameterError as exc:
-                raise ParameterError(f"simulate(params={{{name!r}: ...}}): {exc}") from None
+                raise ParameterError(f"{entry}(params={{{name!r}: ...}}): {exc}") from None
         else:
-            values[dae.p_names.index(name)] = finite_number(value, f"simulate(params={{{name!r}: ...}}): {owner}",
+            values[dae.p_names.index(name)] = finite_number(value, f"{entry}(params={{{name!r}: ...}}): {owner}",
                                                             ParameterError)
     if given:
         check_values(dae.info.get("parameter_requirements", ()), dict(zip(dae.p_names, values)),
-                     "simulate(params=...)")
+                     f"{entry}(params=...)")
     return values
 
 
