@@ -467,10 +467,10 @@ PC_J = M_SPHERE * PC_L ** 2 + PC_I            # about the pivot
 PC_PERIOD = 2 * np.pi * np.sqrt(PC_J / (M_SPHERE * G * PC_L))   # small swings (A²/16 = 6e-14 off)
 
 
-def _pendulum_cradle():
+def _pendulum_cradle(amplitude=PC_A):
     """Five pendulums (0.2 kg at L = 1 m on revolutes about z, 5 cm apart, g along −y) with rotational
     hard stops (e = 1) between neighbouring joints' flanges: phi_rel = φ_{i+1} − φ_i ≥ 0. The first is
-    released from −A at rest, the others hang at rest touching each other."""
+    released from −amplitude at rest, the others hang at rest touching each other."""
     from mechnet.components import multibody as mb
     m = mn.Model("pendulum_cradle")
     world = m.add(mb.World(name="world", g=[0.0, -G, 0.0]))
@@ -478,7 +478,7 @@ def _pendulum_cradle():
     joints = []
     for i in range(N_BALLS):
         pivot = m.add(mb.FixedTranslation(name=f"pivot{i}", r=[DIAM * i, 0.0, 0.0]))
-        joint = m.add(mb.Revolute(name=f"j{i}", n=[0, 0, 1], use_flange=True, phi_start=-PC_A if i == 0 else 0.0,
+        joint = m.add(mb.Revolute(name=f"j{i}", n=[0, 0, 1], use_flange=True, phi_start=-amplitude if i == 0 else 0.0,
                                   w_start=0.0))
         ball = m.add(mb.Body(name=f"ball{i}", m=M_SPHERE, r_cm=[0.0, -PC_L, 0.0], I=np.eye(3) * PC_I))
         for a, b in ((world.frame_b, pivot.frame_a), (pivot.frame_b, joint.frame_a), (joint.frame_b, ball.frame_a),
@@ -527,6 +527,56 @@ def test_newtons_cradle_of_touching_pendulums():
     w_scale = PC_A * 2 * np.pi / PC_PERIOD
     assert np.max(np.abs(phi[1:-1, after:])) <= 1e-9 * PC_A
     assert np.max(np.abs(w[1:-1, after:])) <= 1e-9 * w_scale
+    momentum = PC_J * w.sum(axis=0)
+    energy = (0.5 * PC_J * w ** 2 + 2 * M_SPHERE * G * PC_L * np.sin(phi / 2) ** 2).sum(axis=0)
+    assert momentum[after] == pytest.approx(momentum[before], rel=1e-12)
+    assert energy[after] == pytest.approx(energy[before], rel=1e-12)
+    assert w[-1, after] == pytest.approx(w[0, before], rel=1e-12)
+
+
+@pytest.mark.parametrize("tolerances", [dict(rtol=RTOL, atol=ATOL), dict()], ids=["tight", "default"])
+def test_newtons_cradle_of_touching_pendulums_at_a_realistic_amplitude(tolerances):
+    """Issue 31, item 3, at a swing one would build: the first ball released from 0.3 rad. The impact
+    leaves the first ball ~2e-13 rad past the second (the event located to 1e-12 s at 0.94 rad/s) and
+    the resting balls with round-off speeds ~1e-16 rad/s; their contacts' accelerations read round-off
+    at the scale of g (~1e-15 rad/s²), so the round-off-only rest rule took them in and out of rest and
+    the stops fired again and again without changing anything (hit1 "hits phi_min" 105 times at rtol
+    1e-10, atol 1e-12; 54 events at the defaults; up to ~900 with 4.7 s of wall time in the review). A
+    contact is now at rest on its boundary within what the integration resolves of it (atol at the
+    states' nominal scale, or their round-off if larger; state_events.py, `_allowance`), and coming to
+    rest is no crossing: so only the physical events.
+
+    Horizon 0.7 T (T = 2·π·√(J/(m·g·L)) = 2.006 s, the small-swing period; the last ball comes back at
+    3/4 of its (longer) period, after the horizon): exactly the four stops, in cascade at one instant
+    near T/4 (hit0 … hit3). Tight (rtol 1e-10, atol 1e-12; scale A = 0.3 rad, 0.94 rad/s):
+    - the last ball's amplitude (from its energy at the end: cos φ_max = cos φ − J·ω²/(2·m·g·L)) = A
+      within 1e-6 rad, and its largest sampled angle (0.35 ms grid) too;
+    - the three middle balls from the impact on: |φ| ≤ 1e-12 rad, |ω| ≤ 1e-12 rad/s (atol level);
+    - across the impact (left and right rows): Σ J·ω and Σ J·ω²/2 + 2·m·g·L·sin²(φ/2) equal to 1e-12
+      relative (scales J·0.94 rad/s, m·g·L·(1 − cos A)).
+    At the default settings (rtol 1e-6, atol 1e-8): the same four events, amplitude within 1e-5 rad,
+    middle balls within 1e-8 (atol), impact balances to 1e-12 (the impulses are exact whatever the
+    tolerance)."""
+    amplitude = 0.3
+    tight = bool(tolerances)
+    cm = _pendulum_cradle(amplitude)
+    horizon = 0.7 * PC_PERIOD
+    res = cm.simulate(horizon, t_out=np.linspace(0.0, horizon, 4001), **tolerances)
+    assert res.success
+    impacts = [(e.t, e.kind, e.cause.split(" ")[0]) for e in res.events]
+    t_hit = impacts[0][0]
+    assert impacts == [(t_hit, "state", f"hit{i}") for i in range(N_BALLS - 1)]
+    assert 0.24 * PC_PERIOD < t_hit < 0.26 * PC_PERIOD
+    phi = np.array([res[f"j{i}.phi"] for i in range(N_BALLS)])
+    w = np.array([res[f"j{i}.w"] for i in range(N_BALLS)])
+    level = 1e-6 if tight else 1e-5
+    reached = np.arccos(np.cos(phi[-1, -1]) - PC_J * w[-1, -1] ** 2 / (2 * M_SPHERE * G * PC_L))
+    assert abs(reached - amplitude) <= level
+    assert abs(np.max(phi[-1]) - amplitude) <= level
+    before, after = _limits(res, t_hit)
+    rest = 1e-12 if tight else 1e-8
+    assert np.max(np.abs(phi[1:-1, after:])) <= rest
+    assert np.max(np.abs(w[1:-1, after:])) <= rest
     momentum = PC_J * w.sum(axis=0)
     energy = (0.5 * PC_J * w ** 2 + 2 * M_SPHERE * G * PC_L * np.sin(phi / 2) ** 2).sum(axis=0)
     assert momentum[after] == pytest.approx(momentum[before], rel=1e-12)

@@ -29,7 +29,12 @@ independent of the output grid and the tolerance:
   boundary and not moving, on no side. Two pendulums hanging at rest, touching, read angles of
   1e-45 rad (the round-off of the scene's solve); their stop saw that wander across 0 as impacts,
   rests and releases until the run stopped. So touching contacts follow one law whatever their
-  coordinates: impulses only where a contact closes, in cascade rounds at the instant.
+  coordinates: impulses only where a contact closes, in cascade rounds at the instant. The band is
+  the larger of that round-off and what the integration resolves near zero (atol at each state's
+  nominal scale, carried into g: `_allowance`): after a cradle's impact at 0.3 rad the resting balls
+  read speeds of 1e-16 rad/s and accelerations of 1e-15 rad/s² (round-off at the scale of g), just
+  across the round-off-only test, and their stops fired some hundred times without changing anything.
+  Coming to rest is no crossing: a function at rest stays on the side it was on (`_first_crossing`).
 - **Excursions between monitor points.** g and ġ at both ends of each monitor
   interval define a cubic Hermite interpolant; its extrema inside the interval
   are checked too, so a whole excursion (down through zero and back) between
@@ -162,11 +167,15 @@ def _zero_rates(dae, sym):
     gd = lie(g)
     rates = ca.densify(ca.vertcat(g, gd, lie(gd)))
     eps = 4 * np.finfo(float).eps
-    noise = ca.mtimes(ca.fabs(ca.jacobian(g, x)), eps * ca.fmax(ca.fabs(x), ca.DM(dae.x_nominal)))
+    jx = ca.fabs(ca.jacobian(g, x))
+    noise = ca.mtimes(jx, eps * ca.fmax(ca.fabs(x), ca.DM(dae.x_nominal)))
+    scale = ca.mtimes(jx, ca.DM(dae.x_nominal))
     if z.numel():
-        noise = noise + ca.mtimes(ca.fabs(ca.jacobian(g, z)), eps * ca.fmax(ca.fabs(z), ca.DM(dae.z_nominal)))
+        jz = ca.fabs(ca.jacobian(g, z))
+        noise = noise + ca.mtimes(jz, eps * ca.fmax(ca.fabs(z), ca.DM(dae.z_nominal)))
+        scale = scale + ca.mtimes(jz, ca.DM(dae.z_nominal))
     return (ca.Function("zero_rates", args, [rates]),
-            ca.Function("zero_rates_noise", args, [ca.densify(ca.vertcat(rates, noise))]))
+            ca.Function("zero_rates_noise", args, [ca.densify(ca.vertcat(rates, noise, scale))]))
 
 
 def _cubic_extrema(g_a, d_a, g_b, d_b, h):
@@ -215,9 +224,10 @@ def _at_rest(g, gd, gdd, noise, horizon):
     """(g, ġ, g̈) with exact zeros for the functions at rest on their boundary: g within its round-off
     (`noise`) and its rates too small to move it out of that within the run (|ġ|·T, |g̈|·T² ≤ noise).
     Such a function (two touching pendulums hanging at rest) has no side to be on: its round-off
-    wandering across 0 is no crossing. Works on arrays of points (functions in the last axis)."""
+    wandering across 0 is no crossing. Works on arrays of points (functions in the last axis); the
+    fourth value is where they rest. `noise`: the band (`StateEvents._allowance`)."""
     rest = (np.abs(g) <= noise) & (np.abs(gd) * horizon <= noise) & (np.abs(gdd) * horizon ** 2 <= noise)
-    return np.where(rest, 0.0, g), np.where(rest, 0.0, gd), np.where(rest, 0.0, gdd)
+    return np.where(rest, 0.0, g), np.where(rest, 0.0, gd), np.where(rest, 0.0, gdd), rest
 
 
 def _hermite_root(t_a, g_a, d_a, t_b, g_b, d_b):
@@ -280,8 +290,16 @@ class StateEvents:
         out = rates(np.atleast_1d(float(t)), np.atleast_1d(np.asarray(x, dtype=float)),
                     np.atleast_1d(np.asarray(z, dtype=float)), np.atleast_1d(np.asarray(self._u_at(t), dtype=float)),
                     np.atleast_1d(self.p), np.atleast_1d(self.d))[0]
-        g, gd, gdd, noise = np.asarray(out).ravel().reshape(4, -1)
-        return np.stack(_at_rest(g, gd, gdd, noise, self._horizon()))
+        g, gd, gdd, noise, scale = np.asarray(out).ravel().reshape(5, -1)
+        return np.stack(_at_rest(g, gd, gdd, self._allowance(noise, scale), self._horizon())[:3])
+
+    def _allowance(self, noise, scale):
+        """How far from its boundary a function may sit, unresolved: the round-off of the states (`noise`)
+        or what the integration resolves of them near zero, atol at each state's nominal scale carried
+        into g (`scale` = |∂g/∂x|·x_nominal + |∂g/∂z|·z_nominal), whichever is larger."""
+        settings = getattr(self, "settings", None)
+        atol = float(settings[3]) if settings is not None else 0.0
+        return np.maximum(noise, atol * scale)
 
     def _horizon(self):
         """The run's length (s): how long a function at rest on its boundary must stay within round-off."""
@@ -297,7 +315,7 @@ class StateEvents:
         out = rates(np.atleast_1d(float(t)), np.atleast_1d(np.asarray(x, dtype=float)),
                     np.atleast_1d(np.asarray(z, dtype=float)), np.atleast_1d(np.asarray(self._u_at(t), dtype=float)),
                     np.atleast_1d(self.p), np.atleast_1d(self.d))[0]
-        return np.asarray(out).ravel().reshape(4, -1)[3]
+        return np.asarray(out).ravel().reshape(5, -1)[3]
 
     def _left_of_time_events(self, pts):
         """A piece ending at a time event is judged by its conditions' left limits there (a clutch
@@ -399,8 +417,9 @@ class StateEvents:
                   np.tile(self.d.reshape(-1, 1), n))[0]
         m = len(self.dae.zero_labels)
         dirs = np.array(self.dae.zero_directions)
-        noise = R[3 * m:, 0]                            # the round-off of g at the piece's start
-        G, D, _ = _at_rest(R[:m].T, R[m: 2 * m].T, R[2 * m: 3 * m].T, R[3 * m:].T, self._horizon())   # (n, m)
+        noise = R[3 * m: 4 * m, 0]                      # the round-off of g at the piece's start
+        allowance = self._allowance(R[3 * m: 4 * m].T, R[4 * m:].T)
+        G, D, _, rest = _at_rest(R[:m].T, R[m: 2 * m].T, R[2 * m: 3 * m].T, allowance, self._horizon())  # (n, m)
         G = _leaving(G, D, noise, dirs)
         # the side at each point: its sign; at the start the armed side where it was set at that very time
         # (just after an event g may be a round-off on either side) or where g is exactly 0
@@ -409,6 +428,8 @@ class StateEvents:
         side[0] = np.where(keep, self._armed if self._armed is not None else 0.0, side[0])
         last = np.maximum.accumulate(np.where(side != 0, np.arange(n)[:, None], 0), axis=0)
         side = np.take_along_axis(side, last, axis=0)
+        # a function at rest on its boundary stays on the side it was on: coming to rest is no crossing
+        G = np.where(rest & (side != 0), side * 1e-300, G)
         h = np.diff(pts[:n])[:, None]
         s, ext = _cubic_extrema(G[:-1], D[:-1], G[1:], D[1:], h)
         ext = np.where(np.abs(ext) <= noise[:, None], np.nan, ext)     # (points, functions, 2)
