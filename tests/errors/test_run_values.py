@@ -268,7 +268,8 @@ def test_an_fmu_refuses_mu_s_below_mu_k_at_the_end_of_initialisation(friction, t
 
 def test_an_fmu_refuses_a_broken_tuning_in_event_mode_whole(friction, tmp_path):
     """In event mode a call that sets mu_s below mu_k, or sets it and then fails on a variable that cannot
-    be set, or sets a parameter to NaN, is refused whole: mu_s keeps its value (FMI 2 ME through FMPy)."""
+    be set, or sets a parameter to NaN or outside its own check's range (mu_k < 0), is refused whole:
+    mu_s keeps its value (FMI 2 ME through FMPy)."""
     pytest.importorskip("fmpy", reason="fmpy (extra 'test') runs FMUs")
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Model
@@ -289,7 +290,8 @@ def test_an_fmu_refuses_a_broken_tuning_in_event_mode_whole(friction, tmp_path):
         before = fmu.getReal([vr["fr.mu_s"]])[0]
         for refs, values in (([vr["fr.mu_s"]], [0.1]),                      # below mu_k = 0.2
                              ([vr["fr.mu_s"], calculated], [0.5, 1.0]),      # then a variable it cannot set
-                             ([vr["fr.mu_s"]], [float("nan")])):
+                             ([vr["fr.mu_s"]], [float("nan")]),
+                             ([vr["fr.mu_k"], vr["fr.mu_s"]], [-0.1, 0.4])):  # mu_k's own check: >= 0
             with pytest.raises(Exception):
                 fmu.setReal(refs, values)
             assert fmu.getReal([vr["fr.mu_s"]])[0] == before
@@ -316,3 +318,19 @@ def test_a_loaded_export_calls_nothing_but_parameter_checks(stops, tmp_path):
     loaded = load(tmp_path / "stops")
     declaration, _ = loaded.dae.info["parameter_checks"]["stop.e"]
     assert declaration is None
+
+
+def test_an_fmu_refuses_a_parameter_outside_its_own_check(friction, tmp_path):
+    """A parameter's own check (mass m > 0) is kept by the FMU as a range: a value set before
+    initialisation outside it is an error naming the parameter when initialisation ends."""
+    fmpy = pytest.importorskip("fmpy", reason="fmpy (extra 'test') runs FMUs")
+    from mechnet.export.files import compiler
+    if compiler() is None:
+        pytest.skip("no C compiler to build the FMU")
+    path = friction.export(tmp_path / "fr.fmu", kind="fmu")
+    messages = []
+    with pytest.raises(Exception):
+        fmpy.simulate_fmu(str(path), stop_time=0.5, fmi_type="ModelExchange", start_values={"mass.m": -1.0},
+                          logger=lambda *a: messages.append(a[-1]))
+    text = " ".join(m.decode() if isinstance(m, bytes) else str(m) for m in messages)
+    assert "parameter mass.m = -1 must be > 0" in text

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import platform
 import shutil
 import tempfile
@@ -78,8 +79,13 @@ def _guid(meta: dict) -> str:
 
 def _c_array(ctype: str, name: str, values) -> str:
     values = list(values)
-    body = ", ".join(repr(float(v)) if ctype == "double" else str(v) for v in values) or "0"
+    body = ", ".join(_c_double(v) if ctype == "double" else str(v) for v in values) or "0"
     return f"static const {ctype} {name}[{max(len(values), 1)}] = {{{body}}};\n"
+
+
+def _c_double(value) -> str:
+    value = float(value)
+    return repr(value) if math.isfinite(value) else ("INFINITY" if value > 0 else "-INFINITY")
 
 
 def _c_string(text: str) -> str:
@@ -145,10 +151,32 @@ def requirement_table(meta: dict) -> str:
     out += _c_array("int", "mn_req_strict", (int(e["op"] == ">") for e in entries))
     out += (f"static const char *const mn_p_names[{max(len(meta['p']), 1)}] = "
             f"{{{', '.join(_c_string(v['name']) for v in meta['p']) or '0'}}};\n")
+    out += value_range_table(meta)
     texts = [f"{e['owner']}: {e['lhs'].rsplit('.', 1)[-1]} must be {e['op']} {e['rhs'].rsplit('.', 1)[-1]} "
              f"({e['why']})" for e in entries]
     return out + (f"static const char *const mn_req_text[{max(len(texts), 1)}] = "
                   f"{{{', '.join(_c_string(t) for t in texts) or '0'}}};\n")
+
+
+# a parameter's own check (model.json's "check") as the range the C wrapper keeps it in: lower bound,
+# whether it is strict, upper bound and the text it logs; checks of vectors and matrices (an axis, an
+# inertia tensor) and the user's own are left to the finiteness check
+VALUE_RANGES = {
+    "positive": (0.0, 1, math.inf, "must be > 0"),
+    "nonnegative": (0.0, 0, math.inf, "must be >= 0"),
+    "mechnet.components.switched:restitution": (0.0, 0, 1.0, "must lie in [0, 1] (0 plastic, 1 elastic)"),
+}
+
+
+def value_range_table(meta: dict) -> str:
+    """Each parameter's range from its own check (`VALUE_RANGES`) as C tables; unchecked ones get
+    (-inf, inf), where only a non-finite value is refused."""
+    ranges = [VALUE_RANGES.get(v.get("check") or "", (-math.inf, 0, math.inf, "")) for v in meta["p"]]
+    out = _c_array("double", "mn_p_lower", (r[0] for r in ranges))
+    out += _c_array("int", "mn_p_lower_strict", (r[1] for r in ranges))
+    out += _c_array("double", "mn_p_upper", (r[2] for r in ranges))
+    return out + (f"static const char *const mn_p_rule[{max(len(ranges), 1)}] = "
+                  f"{{{', '.join(_c_string(r[3]) for r in ranges) or '0'}}};\n")
 
 
 def _build_description(ident: str) -> str:

@@ -431,8 +431,13 @@ static int enter_event_mode(Instance *m) {
 static int check_parameters(Instance *m) {
     int k;
     for (k = 0; k < MN_NP; k++) {
-        if (isfinite(m->p[k])) continue;
-        logf_(m, ST_ERROR, "logStatusError", "parameter %s = %g is not finite", mn_p_names[k], m->p[k]);
+        double v = m->p[k];
+        if (!isfinite(v)) {
+            logf_(m, ST_ERROR, "logStatusError", "parameter %s = %g is not finite", mn_p_names[k], v);
+            return ST_ERROR;
+        }
+        if ((mn_p_lower_strict[k] ? v > mn_p_lower[k] : v >= mn_p_lower[k]) && v <= mn_p_upper[k]) continue;
+        logf_(m, ST_ERROR, "logStatusError", "parameter %s = %g %s", mn_p_names[k], v, mn_p_rule[k]);
         return ST_ERROR;
     }
     for (k = 0; k < MN_NR; k++) {
