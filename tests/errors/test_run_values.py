@@ -76,6 +76,16 @@ def test_a_zero_quaternion_given_through_start_is_refused():
         cm.simulate(1.0, n_out=5, start=zero)
 
 
+def test_a_quaternion_start_is_judged_zero_alike_when_built_and_when_given_to_a_run():
+    """|Q| <= 1e-12 is no orientation as Q_start and through simulate(start=...) alike: one threshold,
+    not the constructor's 1e-12 and the run's exact zero (which |Q| = 1e-200 reached by underflow)."""
+    tiny = [0.0, 0.0, 0.0, 1e-200]
+    with pytest.raises(mn.ParameterError, match="zero quaternion"):
+        _spherical(Q_start=tiny)
+    with pytest.raises(mn.InitializationError, match="zero quaternion"):
+        _spherical().simulate(0.1, n_out=3, start={f"sph.Q[{k}]": v for k, v in enumerate(tiny)})
+
+
 def test_a_quaternion_start_of_length_two_is_scaled_to_one_in_the_first_row():
     """Q_start = [2, 0, 0, 0] is the identity orientation (R uses Q/|Q|); the first row used to read |Q| = 2."""
     res = _spherical(Q_start=[2.0, 0.0, 0.0, 0.0]).simulate(0.5, n_out=6, rtol=1e-10, atol=1e-12)

@@ -201,7 +201,7 @@ def ready_to_integrate(dae, t0: float, init: InitialPoint, u: np.ndarray, p: np.
 
     Quaternion states are scaled to |Q| = 1, as at every restart (R uses Q/|Q|: only the numbers
     recorded change; a Q_start of [2, 0, 0, 0] used to show |Q| = 2 in the first row); a zero quaternion
-    is no orientation and is refused. A state, algebraic variable or derivative that is not finite at the
+    is no orientation and is refused (|Q| <= 1e-12, as Q_start is). A state, algebraic variable or derivative that is not finite at the
     start (a start of 1e308 whose spring torque overflows, der(x) = 1/x at x = 0) is refused by name: the
     integrator would stop at once and return a partial result of that one non-finite row."""
     x, z = init.x, init.z
@@ -209,7 +209,7 @@ def ready_to_integrate(dae, t0: float, init: InitialPoint, u: np.ndarray, p: np.
     for index in dae.info.get("quaternions", ()):
         q = x[list(index)]
         norm = np.linalg.norm(q)
-        if not norm > 0:
+        if not norm > 1e-12:            # as a Q_start is judged when the joint is built
             names = ", ".join(dae.x_names[k] for k in index)
             raise InitializationError(f"the quaternion {names} starts at {q.tolist()}, the zero quaternion, which "
                                       f"is no orientation (start values fixed: {fixed}); the identity is [1, 0, 0, 0]")
