@@ -263,7 +263,8 @@ def test_a_frames_acceleration_is_the_second_derivative_of_its_position():
     dt = 1e-3
     t_out = np.arange(0.0, 1.0 + dt / 2, dt)
     lever, w0 = np.array([0.0, 0.5, 0.0]), np.array([1.0, 2.0, 3.0])
-    held = _held_by_user(quaternion_of_axis_angle([1, 0, 0], 0.8), w0, lever, dict(m=1.0, I=np.diag([0.02, 0.01, 0.03])))
+    held = _held_by_user(quaternion_of_axis_angle([1, 0, 0], 0.8), w0, lever,
+                         dict(m=1.0, I=np.diag([0.02, 0.01, 0.03])))
     disc, _, disc_start = _disc_on_ice()
     for model, start in ((held, None), (disc, disc_start)):
         res = model.compile().simulate(1.0, t_out=t_out, start=start, **TIGHT)

@@ -107,7 +107,8 @@ def test_continue_from_with_another_t_start_is_refused(osc):
 
 def test_continue_from_with_start_values_is_refused(osc):
     first = osc.simulate(1.0, n_out=5)
-    with pytest.raises(mn.MechnetError, match=r"continue_from=res starts from res's final state.*\(j1\.phi\) would jump"):
+    jump = r"continue_from=res starts from res's final state.*\(j1\.phi\) would jump"
+    with pytest.raises(mn.MechnetError, match=jump):
         osc.simulate(2.0, n_out=5, continue_from=first, start={"j1.phi": 3.0})
 
 

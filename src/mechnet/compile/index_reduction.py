@@ -306,6 +306,7 @@ def reduce_index(flat: FlatSystem, options: IndexReductionOptions = IndexReducti
             derivative_expr[i] = ca.SX(c)
 
     equations = list(flat.equations)
+    where = {s.element_hash(): v for v, s in enumerate(symbols)}
     for k in range(n_eq0, len(graph.inc)):
         parent = graph.parent[k]
         source = equations[parent]
@@ -316,7 +317,7 @@ def reduce_index(flat: FlatSystem, options: IndexReductionOptions = IndexReducti
                 f"but its signal is smooth only to order {source.smoothness:g}: a prescribed motion needs a "
                 f"signal with continuous derivatives (e.g. Sine, or a smoother profile) when it drives an "
                 f"element rigidly")
-        equations.append(_differentiate(source, flat, graph, parent, symbols, derivative_expr, order))
+        equations.append(_differentiate(source, flat, graph, where, symbols, derivative_expr, order))
     for e in graph.diff:
         if e < n_eq0:
             equations[e] = replace(equations[e], constraint=True)
@@ -555,13 +556,14 @@ def expand_unless_states(flat: FlatSystem) -> FlatSystem:
     return replace(flat, equations=tuple(equations), intermediates=((), ()))
 
 
-def _differentiate(source: FlatEquation, flat, graph, parent, symbols, derivative_expr, order) -> FlatEquation:
+def _differentiate(source: FlatEquation, flat, graph, where, symbols, derivative_expr, order) -> FlatEquation:
+    """d/dt of `source`: through what the intermediates stand for, with respect to every variable its
+    expression holds (`where`: element hash -> variable index) and time."""
     r = source.residual
     if flat.uses_intermediates(r):        # differentiate what the intermediates stand for
         r = flat.expand([r])[0]
     # every variable the expression holds, not the structural row: a row that missed one would drop
     # its terms from the derivative silently
-    where = {s.element_hash(): v for v, s in enumerate(symbols)}
     incidence = sorted({where[s.element_hash()] for s in ca.symvar(r) if s.element_hash() in where})
     missing = [v for v in incidence if graph.kind[v] != "input" and v not in derivative_expr]
     if missing:
