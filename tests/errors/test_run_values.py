@@ -259,6 +259,12 @@ def test_a_loaded_export_keeps_a_check_defined_outside_declarations(stops, tmp_p
         loaded.simulate(1.0, n_out=5, params={"stop.s_min": 0.06})
 
 
+# FMPy's CVode wrapper of a run refused at its start is collected later and calls back into a freed
+# solver (an ignored ValueError in a ctypes callback): FMPy's, not the FMU's
+_FMPY_LEFTOVERS = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+
+
+@_FMPY_LEFTOVERS
 def test_an_fmu_refuses_mu_s_below_mu_k_at_the_end_of_initialisation(friction, tmp_path):
     """The FMU's C wrapper reads the same requirements (model_data.h): parameter values set before
     initialisation are judged together when it ends, and a broken one is an error naming it."""
@@ -277,6 +283,7 @@ def test_an_fmu_refuses_mu_s_below_mu_k_at_the_end_of_initialisation(friction, t
     assert res["time"][-1] == pytest.approx(0.5)          # guard: a value that keeps it runs
 
 
+@_FMPY_LEFTOVERS
 def test_an_fmu_refuses_a_broken_tuning_in_event_mode_whole(friction, tmp_path):
     """In event mode a call that sets mu_s below mu_k, or sets it and then fails on a variable that cannot
     be set, or sets a parameter to NaN or outside its own check's range (mu_k < 0), is refused whole:
@@ -331,6 +338,7 @@ def test_a_loaded_export_calls_nothing_but_parameter_checks(stops, tmp_path):
     assert declaration is None
 
 
+@_FMPY_LEFTOVERS
 def test_an_fmu_refuses_a_parameter_outside_its_own_check(friction, tmp_path):
     """A parameter's own check (mass m > 0) is kept by the FMU as a range: a value set before
     initialisation outside it is an error naming the parameter when initialisation ends."""
