@@ -310,3 +310,25 @@ def test_a_low_rebound_late_in_time_does_not_sink_through_its_floor(t_start):
     from models import bouncing_ball
     res = bouncing_ball(1.0, 1e-3).compile().simulate(t_start + 1.0, t_start=t_start, n_out=500)
     assert np.min(res["b.h"]) > -1e-5
+
+
+@pytest.mark.parametrize("step_at", [0.0, 0.5])
+def test_touching_masses_pushed_by_a_force_step_move_together(step_at):
+    """Two 1 kg masses touching at rest (gap 0, e = 0.5); a force of 1 N on the first steps on at
+    `step_at` (a time event at 0.5 s, or from the start): the contact closes at once and rests, and both
+    move together, s = ¼·(t − step_at)² at 1 s (within 1e-9 m at rtol 1e-10). At 0.5 s the first used to
+    pass through the second (a function on its boundary set moving by a time event was not fired)."""
+    from mechnet.components import translational as tr
+    m = mn.Model("push")
+    a = m.add(tr.Mass(name="a", m=1.0, s_start=0.0, v_start=0.0))
+    b = m.add(tr.Mass(name="b", m=1.0, s_start=0.0, v_start=0.0))
+    c = m.add(tr.Contact(name="c", e=0.5))
+    f = m.add(tr.Force(name="f"))
+    m.connect(a.flange_b, c.flange_a)
+    m.connect(c.flange_b, b.flange_a)
+    m.connect(f.flange, a.flange_a)
+    force = ([0.0, step_at, step_at, 1.0], [0.0, 0.0, 1.0, 1.0]) if step_at > 0 else 1.0
+    res = m.compile().simulate(1.0, n_out=11, inputs={"f.f": force}, rtol=1e-10, atol=1e-12)
+    together = 0.25 * (1.0 - step_at) ** 2
+    assert res["a.s"][-1] == pytest.approx(together, abs=1e-9)
+    assert res["b.s"][-1] == pytest.approx(together, abs=1e-9)

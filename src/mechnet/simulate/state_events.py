@@ -322,12 +322,16 @@ class StateEvents:
 
     def _after_time_event(self, t):
         """At a time event (inputs and signals jump, states do not): conditions the jump threw across,
-        in their direction, fire at that instant; the others are re-armed on their new sides."""
+        or set moving from their boundary, in their direction, fire at that instant; the others are
+        re-armed on their new sides."""
         if not self.dae.zero_labels or self._armed is None:
             return
         sides, on, _ = self._sides(t, self._rates(t, self.x, self.z))
         dirs = np.array(self.dae.zero_directions)
         thrown = np.flatnonzero(_allowed(dirs, self._armed, sides) & ~on).tolist()
+        # one on its boundary that the jump sets moving into its direction crosses now, as at the start
+        # (masses touching at rest, one pushed into the other by a force stepping on)
+        thrown += [i for i in self._crossing_now(sides, on) if self._armed[i] != sides[i] and i not in thrown]
         if thrown:
             self._fire(t, self.x, self.z, [int(h) for h in thrown], thrown=thrown)
         else:
