@@ -234,3 +234,19 @@ def test_a_problems_parameters_meet_the_requirements_between_them():
     prob.minimize(prob.var("fr.mu_s") + prob.integral(prob.var("push.f") ** 2))
     sol = prob.solve(ocp.Collocation(N=10))
     assert sol.success and sol.params["fr.mu_s"] == pytest.approx(0.2, abs=1e-6)
+    # IPOPT keeps the requirement to its tolerance (it ended 7.5e-9 below mu_k): the solution moves the
+    # freed value onto it, so it replays in cm.simulate (which refused it)
+    assert sol.params["fr.mu_s"] >= 0.2 and sol.verify()["max_deviation"] < 1e-6
+
+
+def test_a_freed_parameter_is_kept_to_its_own_check():
+    """A freed mu_k (check: >= 0) without bounds, its cost pushing it down: the optimum is on the check's
+    bound, 0 (it went to −0.2, or diverged to −1.6e30 when minimised alone), and replays in simulate."""
+    cm = _pushed_block()
+    prob = ocp.Problem(cm, t_final=1.0)
+    prob.free_parameter("fr.mu_k")
+    prob.bounds("push.f", -5.0, 5.0)
+    prob.minimize(prob.var("fr.mu_k") + prob.integral(prob.var("push.f") ** 2))
+    sol = prob.solve(ocp.Collocation(N=10))
+    assert sol.success and 0.0 <= sol.params["fr.mu_k"] <= 1e-8
+    assert sol.verify()["max_deviation"] < 1e-6

@@ -287,7 +287,7 @@ def test_an_fmu_refuses_mu_s_below_mu_k_at_the_end_of_initialisation(friction, t
 def test_an_fmu_refuses_a_broken_tuning_in_event_mode_whole(friction, tmp_path):
     """In event mode a call that sets mu_s below mu_k, or sets it and then fails on a variable that cannot
     be set, or sets a parameter to NaN or outside its own check's range (mu_k < 0), is refused whole:
-    mu_s keeps its value (FMI 2 ME through FMPy)."""
+    mu_s and a state set in the same call keep their values (FMI 2 ME through FMPy)."""
     pytest.importorskip("fmpy", reason="fmpy (extra 'test') runs FMUs")
     from fmpy import extract, read_model_description
     from fmpy.fmi2 import FMU2Model
@@ -305,14 +305,16 @@ def test_an_fmu_refuses_a_broken_tuning_in_event_mode_whole(friction, tmp_path):
         fmu.setupExperiment(startTime=0.0)
         fmu.enterInitializationMode()
         fmu.exitInitializationMode()                     # now in event mode
-        before = fmu.getReal([vr["fr.mu_s"]])[0]
+        watched = [vr["fr.mu_s"], vr["mass.s"]]
+        before = fmu.getReal(watched)
         for refs, values in (([vr["fr.mu_s"]], [0.1]),                      # below mu_k = 0.2
                              ([vr["fr.mu_s"], calculated], [0.5, 1.0]),      # then a variable it cannot set
                              ([vr["fr.mu_s"]], [float("nan")]),
-                             ([vr["fr.mu_k"], vr["fr.mu_s"]], [-0.1, 0.4])):  # mu_k's own check: >= 0
+                             ([vr["fr.mu_k"], vr["fr.mu_s"]], [-0.1, 0.4]),  # mu_k's own check: >= 0
+                             ([vr["mass.s"], vr["fr.mu_s"]], [0.7, 0.1])):   # a state with it: kept too
             with pytest.raises(Exception):
                 fmu.setReal(refs, values)
-            assert fmu.getReal([vr["fr.mu_s"]])[0] == before
+            assert fmu.getReal(watched) == before
         fmu.setReal([vr["fr.mu_s"]], [0.5])              # guard: a value that keeps the requirement is taken
         assert fmu.getReal([vr["fr.mu_s"]])[0] == 0.5
     finally:

@@ -165,7 +165,7 @@ def release_event(sa, mode, name):
                 doc=f"{name} lets go")
 
 
-@parameter_check
+@parameter_check(value_range=(0.0, False, 1.0))
 def restitution(value):
     """The check of a coefficient of restitution (a Param check: also where it is tuned at run time)."""
     return None if 0.0 <= value <= 1.0 else "must lie in [0, 1] (0 plastic, 1 elastic)"

@@ -41,19 +41,33 @@ def finite_number(value, what: str, error=ParameterError) -> float:
 
 # ---- parameter checks: each returns an error text or None ---------------------------------
 
-def parameter_check(fn):
+def parameter_check(fn=None, *, value_range=None):
     """Marks a function as a parameter check. A loaded export names its parameters' checks, and `load`
-    calls only functions marked so: a model file cannot make it call anything else in mechnet."""
-    fn.is_parameter_check = True
-    return fn
+    calls only functions marked so: a model file cannot make it call anything else in mechnet.
+
+    `value_range` = (lower, strict, upper): the interval of numbers the check accepts, where it is one;
+    what keeps a value in it by bounds reads it (an FMU's C wrapper, an optimiser's freed parameter)."""
+    def mark(f):
+        f.is_parameter_check = True
+        f.value_range = value_range
+        return f
+    return mark(fn) if fn is not None else mark
 
 
-@parameter_check
+def value_range_text(value_range) -> str:
+    """'must be > 0', 'must be >= 0', 'must lie in [0, 1]': a range as a check says it."""
+    lower, strict, upper = value_range
+    if upper == float("inf"):
+        return f"must be {'>' if strict else '>='} {lower:g}"
+    return f"must lie in {'(' if strict else '['}{lower:g}, {upper:g}]"
+
+
+@parameter_check(value_range=(0.0, True, float("inf")))
 def positive(value) -> Optional[str]:
     return None if value > 0 else "must be > 0"
 
 
-@parameter_check
+@parameter_check(value_range=(0.0, False, float("inf")))
 def nonnegative(value) -> Optional[str]:
     return None if value >= 0 else "must be >= 0"
 

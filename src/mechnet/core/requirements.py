@@ -83,3 +83,22 @@ def check_values(entries, values: dict, where: str) -> None:
         problem = broken(entry["owner"], entry, lhs, rhs)
         if problem:
             raise ParameterError(f"{where}: {problem}")
+
+
+def onto_requirements(entries, values: dict, freed, tolerance: float = 1e-6) -> dict:
+    """`values` (dotted name -> number) with each freed parameter that breaks a requirement by at most
+    `tolerance` (relative to the larger side, absolute below 1) moved onto it: an optimiser keeps its
+    constraints only to its tolerance (IPOPT left a freed mu_s 7e-9 below mu_k, which simulate then
+    refused). A strict requirement gets the next number beyond the other side. Larger breaks stay, for
+    the check that reads the values to name them."""
+    out = dict(values)
+    for entry in entries:
+        lhs, rhs = (entry[f"{s}_value"] if entry[f"{s}_value"] is not None else out[entry[s]] for s in ("lhs", "rhs"))
+        if broken("", entry, lhs, rhs) is None or abs(lhs - rhs) > tolerance * max(1.0, abs(lhs), abs(rhs)):
+            continue
+        strict = entry["op"] == ">"
+        if entry["lhs_value"] is None and entry["lhs"] in freed:
+            out[entry["lhs"]] = math.nextafter(rhs, math.inf) if strict else rhs
+        elif entry["rhs_value"] is None and entry["rhs"] in freed:
+            out[entry["rhs"]] = math.nextafter(lhs, -math.inf) if strict else lhs
+    return out

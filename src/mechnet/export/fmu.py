@@ -85,6 +85,8 @@ def _c_array(ctype: str, name: str, values) -> str:
 
 def _c_double(value) -> str:
     value = float(value)
+    if math.isnan(value):
+        raise ExportError("a value of the FMU's tables is NaN; a parameter, start or default must be a number")
     return repr(value) if math.isfinite(value) else ("INFINITY" if value > 0 else "-INFINITY")
 
 
@@ -158,22 +160,20 @@ def requirement_table(meta: dict) -> str:
                   f"{{{', '.join(_c_string(t) for t in texts) or '0'}}};\n")
 
 
-# a parameter's own check (model.json's "check") as the range the C wrapper keeps it in: lower bound,
-# whether it is strict, upper bound and the text it logs; checks of vectors and matrices (an axis, an
-# inertia tensor) and the user's own are left to the finiteness check
-VALUE_RANGES = {
-    "positive": (0.0, 1, math.inf, "must be > 0"),
-    "nonnegative": (0.0, 0, math.inf, "must be >= 0"),
-    "mechnet.components.switched:restitution": (0.0, 0, 1.0, "must lie in [0, 1] (0 plastic, 1 elastic)"),
-}
-
-
 def value_range_table(meta: dict) -> str:
-    """Each parameter's range from its own check (`VALUE_RANGES`) as C tables; unchecked ones get
-    (-inf, inf), where only a non-finite value is refused."""
-    ranges = [VALUE_RANGES.get(v.get("check") or "", (-math.inf, 0, math.inf, "")) for v in meta["p"]]
+    """Each parameter's range from its own check (`declarations.parameter_check`'s value_range) as C
+    tables: lower bound, whether it is strict, upper bound and the text the wrapper logs. Checks of
+    vectors and matrices (an axis, an inertia tensor), the user's own and none get (-inf, inf), where
+    only a non-finite value is refused."""
+    from ..core.declarations import value_range_text
+    from .load import check_named
+    ranges = []
+    for v in meta["p"]:
+        check = check_named(v.get("check") or "")
+        value_range = getattr(check, "value_range", None)
+        ranges.append((*value_range, value_range_text(value_range)) if value_range else (-math.inf, 0, math.inf, ""))
     out = _c_array("double", "mn_p_lower", (r[0] for r in ranges))
-    out += _c_array("int", "mn_p_lower_strict", (r[1] for r in ranges))
+    out += _c_array("int", "mn_p_lower_strict", (int(r[1]) for r in ranges))
     out += _c_array("double", "mn_p_upper", (r[2] for r in ranges))
     return out + (f"static const char *const mn_p_rule[{max(len(ranges), 1)}] = "
                   f"{{{', '.join(_c_string(r[3]) for r in ranges) or '0'}}};\n")

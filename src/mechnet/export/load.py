@@ -110,19 +110,26 @@ def _dae(record: dict, fns: dict) -> SemiExplicitDAE:
         zero_directions=tuple(e["direction"] for e in record["zero"]), info=info)
 
 
+def check_named(where: str):
+    """The parameter check an export names (a name in core/declarations.py, or "module:name" elsewhere in
+    mechnet), or None. Nothing is imported on the file's word, and only a function marked as a
+    parameter check is returned (`declarations.parameter_check`)."""
+    from ..core import declarations
+    module, _, name = where.rpartition(":")
+    if module and not module.startswith("mechnet."):
+        return None
+    check = getattr(sys.modules.get(module) if module else declarations, name, None) if name else None
+    return check if callable(check) and getattr(check, "is_parameter_check", False) else None
+
+
 def _declaration(entry: dict):
     """A parameter's check as the scene declared it (by the name of one of core/declarations.py's checks,
     or "module:name" of one elsewhere in mechnet: `contract._check`), so a new value is refused as it was
     before export; None when the check was the user's own function (a new value must then be finite), or
     names anything that is not a parameter check of a module mechnet has loaded."""
     from ..core import declarations
-    where = entry.get("check") or ""
-    module, _, name = where.rpartition(":")
-    if module and not module.startswith("mechnet."):
-        return None
-    # nothing is imported on the file's word, and only a function marked as a parameter check is called
-    check = getattr(sys.modules.get(module) if module else declarations, name, None)
-    if not callable(check) or not getattr(check, "is_parameter_check", False):
+    check = check_named(entry.get("check") or "")
+    if check is None:
         return None
     decl = declarations.Param(entry["value"], unit=entry["unit"], doc=entry.get("doc", ""), check=check)
     decl.name = entry["name"].rsplit(".", 1)[-1]

@@ -348,10 +348,20 @@ static int get_real(Instance *m, const uint32_t *vr, size_t n, double *value) {
 
 static int check_parameters(Instance *m);
 
+/* a call refused in event mode leaves every value as it was before it: parameters, inputs and states */
+static void refuse_whole(Instance *m, const double *p, const double *u, const double *x) {
+    memcpy(m->p, p, sizeof(double) * MN_NP);
+    memcpy(m->u, u, sizeof(double) * MN_NU);
+    memcpy(m->x, x, sizeof(double) * MN_NX);
+    changed(m);
+}
+
 static int set_real(Instance *m, const uint32_t *vr, size_t n, const double *value) {
     size_t i;
-    double p_before[MN_NP + 1];
+    double p_before[MN_NP + 1], u_before[MN_NU + 1], x_before[MN_NX + 1];
     memcpy(p_before, m->p, sizeof(double) * MN_NP);
+    memcpy(u_before, m->u, sizeof(double) * MN_NU);
+    memcpy(x_before, m->x, sizeof(double) * MN_NX);
     for (i = 0; i < n; i++) {
         uint32_t r = vr[i];
         int where = r <= MN_NVAR ? mn_vr_set[r] : -1, k = r <= MN_NVAR ? mn_vr_set_index[r] : 0;
@@ -367,14 +377,13 @@ static int set_real(Instance *m, const uint32_t *vr, size_t n, const double *val
             logf_(m, ST_ERROR, "logStatusError", "variable with value reference %u cannot be set %s", r,
                   before_init ? "(it is calculated)" : "after initialisation (only inputs, and tunable parameters in "
                   "event mode)");
-            if (m->mode == MODE_EVENT)          /* tunables changed in event mode: the call is refused whole */
-                memcpy(m->p, p_before, sizeof(double) * MN_NP);
-            if (i) changed(m);                  /* the values before it were taken */
+            if (m->mode == MODE_EVENT) refuse_whole(m, p_before, u_before, x_before);
+            else if (i) changed(m);             /* the values before it were taken */
             return ST_ERROR;
         }
     }
     if (m->mode == MODE_EVENT && memcmp(p_before, m->p, sizeof(double) * MN_NP) && check_parameters(m) != ST_OK) {
-        memcpy(m->p, p_before, sizeof(double) * MN_NP);   /* (tuned in event mode: the call is refused whole) */
+        refuse_whole(m, p_before, u_before, x_before);
         return ST_ERROR;
     }
     if (n) changed(m);

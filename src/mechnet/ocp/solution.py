@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..components.signals import Table
+from ..core.requirements import onto_requirements
 from ..core.errors import InitializationError
 from ..simulate.result import Result
 
@@ -20,7 +21,7 @@ class Solution:
         self.success = stats["success"]
         self.t = np.asarray(values["t"], dtype=float).ravel()
         self.t_final = float(np.asarray(values["T"]).ravel()[0])
-        p = np.asarray(values["p"], dtype=float).ravel()
+        p = _onto_requirements(prob, np.asarray(values["p"], dtype=float).ravel())
         self.params = {n: float(p[dae.p_names.index(n)]) for n in prob.free_params}
         self._p = p
         n = self.t.size
@@ -108,3 +109,27 @@ def _selection_held(prob, t, X, Z, U, p, d) -> tuple[bool, str]:
                            f"states is better there; the solution cannot be trusted past it")
     return True, f"held (lowest conditioning {worst[0]:.2g}, at t = {worst[1]:.6g} s)" if worst[1] is not None \
         else "held"
+
+
+def _onto_requirements(prob, p: np.ndarray) -> np.ndarray:
+    """The parameter vector with the freed parameters moved onto their own check's range and the
+    requirements between parameters where they leave them by no more than IPOPT's bound relaxation and
+    tolerance (1e-8 relative: a freed mu_k ended at −7.5e-9 for a bound of 0), so the solution replays
+    in cm.simulate, which checks them (`requirements.onto_requirements`)."""
+    if not prob.free_params:
+        return p
+    names = prob.dae.p_names
+    values = dict(zip(names, p.tolist()))
+    checks = prob.dae.info.get("parameter_checks", {})
+    for name in prob.free_params:
+        value_range = getattr(getattr(checks.get(name, (None,))[0], "check", None), "value_range", None)
+        if value_range is None:
+            continue
+        lower, strict, upper = value_range
+        slack = 1e-6 * max(1.0, abs(values[name]))
+        if lower - slack <= values[name] <= lower or (strict and values[name] == lower):
+            values[name] = float(np.nextafter(lower, np.inf)) if strict else lower
+        elif upper < values[name] <= upper + slack:
+            values[name] = upper
+    moved = onto_requirements(prob.dae.info.get("parameter_requirements", ()), values, set(prob.free_params))
+    return np.array([moved[n] for n in names], dtype=float)

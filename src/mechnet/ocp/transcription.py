@@ -155,10 +155,17 @@ class Transcription:
         """The model's parameter vector, the freed ones decision variables within their bounds (those of
         free_parameter and of bounds(...), both)."""
         values = [ca.MX(v) for v in prob.p_value]
+        checks = prob.dae.info.get("parameter_checks", {})
         for name, (lo, hi) in prob.free_params.items():
             k = prob.dae.p_names.index(name)
             more = prob.bounds_of.get(name, (lo, hi))
             lo, hi = max(lo, more[0]), min(hi, more[1])
+            # the parameter's own check as bounds (a mass > 0, a friction coefficient >= 0); a strict one
+            # 1e-12 inside, since IPOPT ends on a bound it is held to
+            value_range = getattr(getattr(checks.get(name, (None,))[0], "check", None), "value_range", None)
+            if value_range is not None:
+                lower, strict, upper = value_range
+                lo, hi = max(lo, lower + (1e-12 * max(1.0, abs(lower)) if strict else 0.0)), min(hi, upper)
             if lo > hi:
                 raise OcpError(f"parameter {name}: free_parameter and bounds leave no value ({lo:g} > {hi:g})")
             values[k] = nlp.variable(f"p_{name}", 1, min(max(prob.p_value[k], lo), hi), lo, hi,
