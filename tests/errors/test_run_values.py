@@ -259,6 +259,18 @@ def test_a_loaded_export_keeps_a_check_defined_outside_declarations(stops, tmp_p
         loaded.simulate(1.0, n_out=5, params={"stop.s_min": 0.06})
 
 
+_KEPT = []
+
+
+def _callbacks():
+    from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+    if not _KEPT:
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = fmi2CallbackLoggerTYPE(lambda *args: None)
+        _KEPT.append(callbacks)
+    return _KEPT[0]
+
+
 # FMPy's CVode wrapper of a run refused at its start is collected later and calls back into a freed
 # solver (an ignored ValueError in a ctypes callback): FMPy's, not the FMU's
 _FMPY_LEFTOVERS = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
@@ -300,7 +312,9 @@ def test_an_fmu_refuses_a_broken_tuning_in_event_mode_whole(friction, tmp_path):
     calculated = vr["mass.a"]                            # an acceleration: calculated, never set
     fmu = FMU2Model(guid=md.guid, unzipDirectory=extract(str(path)),
                     modelIdentifier=md.modelExchange.modelIdentifier, instanceName="fr")
-    fmu.instantiate(loggingOn=False)
+    # callbacks of our own, kept alive by the module: FMPy's default logger proxy points at the logger of
+    # the last simulate_fmu(logger=...) call, freed since, and the refusals below log through it
+    fmu.instantiate(loggingOn=False, callbacks=_callbacks())
     try:
         fmu.setupExperiment(startTime=0.0)
         fmu.enterInitializationMode()
