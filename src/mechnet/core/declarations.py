@@ -54,12 +54,11 @@ def parameter_check(fn=None, *, value_range=None):
     return mark(fn) if fn is not None else mark
 
 
-def value_range_text(value_range) -> str:
-    """'must be > 0', 'must be >= 0', 'must lie in [0, 1]': a range as a check says it."""
-    lower, strict, upper = value_range
-    if upper == float("inf"):
-        return f"must be {'>' if strict else '>='} {lower:g}"
-    return f"must lie in {'(' if strict else '['}{lower:g}, {upper:g}]"
+def value_range_text(check) -> str:
+    """The check's own words for a value outside its range ('must be > 0', 'must lie in [0, 1] (0
+    plastic, 1 elastic)'): asked of the check itself, with a value just outside."""
+    lower, _, upper = check.value_range
+    return check(lower - 1.0 if lower > float("-inf") else upper + 1.0) or ""
 
 
 @parameter_check(value_range=(0.0, True, float("inf")))

@@ -171,7 +171,7 @@ def value_range_table(meta: dict) -> str:
     for v in meta["p"]:
         check = check_named(v.get("check") or "")
         value_range = getattr(check, "value_range", None)
-        ranges.append((*value_range, value_range_text(value_range)) if value_range else (-math.inf, 0, math.inf, ""))
+        ranges.append((*value_range, value_range_text(check)) if value_range else (-math.inf, 0, math.inf, ""))
     out = _c_array("double", "mn_p_lower", (r[0] for r in ranges))
     out += _c_array("int", "mn_p_lower_strict", (int(r[1]) for r in ranges))
     out += _c_array("double", "mn_p_upper", (r[2] for r in ranges))

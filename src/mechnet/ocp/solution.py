@@ -113,23 +113,37 @@ def _selection_held(prob, t, X, Z, U, p, d) -> tuple[bool, str]:
 
 def _onto_requirements(prob, p: np.ndarray) -> np.ndarray:
     """The parameter vector with the freed parameters moved onto their own check's range and the
-    requirements between parameters where they leave them by no more than IPOPT's bound relaxation and
-    tolerance (1e-8 relative: a freed mu_k ended at −7.5e-9 for a bound of 0), so the solution replays
-    in cm.simulate, which checks them (`requirements.onto_requirements`)."""
+    requirements between parameters where they leave them by no more than 1e-6 (relative, absolute
+    below 1): IPOPT keeps bounds and constraints to its relaxation and tolerance (a freed mu_k ended at
+    −7.5e-9 for a bound of 0), and cm.simulate checks them. A strict bound becomes the transcription's
+    (1e-12 inside); a move that would leave another range is not made (the replay then names it)."""
     if not prob.free_params:
         return p
     names = prob.dae.p_names
     values = dict(zip(names, p.tolist()))
-    checks = prob.dae.info.get("parameter_checks", {})
-    for name in prob.free_params:
-        value_range = getattr(getattr(checks.get(name, (None,))[0], "check", None), "value_range", None)
-        if value_range is None:
-            continue
-        lower, strict, upper = value_range
-        slack = 1e-6 * max(1.0, abs(values[name]))
-        if lower - slack <= values[name] <= lower or (strict and values[name] == lower):
-            values[name] = float(np.nextafter(lower, np.inf)) if strict else lower
-        elif upper < values[name] <= upper + slack:
-            values[name] = upper
+    ranges = {name: _value_range(prob, name) for name in prob.free_params}
+    for name, value_range in ranges.items():
+        if value_range is not None:
+            values[name] = _into(values[name], *value_range)
     moved = onto_requirements(prob.dae.info.get("parameter_requirements", ()), values, set(prob.free_params))
+    for name, value_range in ranges.items():
+        if value_range is not None and _into(moved[name], *value_range) != moved[name]:
+            moved[name] = values[name]
     return np.array([moved[n] for n in names], dtype=float)
+
+
+def _value_range(prob, name):
+    declaration = prob.dae.info.get("parameter_checks", {}).get(name, (None,))[0]
+    return getattr(getattr(declaration, "check", None), "value_range", None)
+
+
+def _into(value: float, lower: float, strict: bool, upper: float) -> float:
+    """value moved into [lower, upper] when it is outside by at most 1e-6 (relative, absolute below 1); a
+    strict lower bound 1e-12 inside, as the transcription bounds it."""
+    slack = 1e-6 * max(1.0, abs(value))
+    floor = lower + 1e-12 * max(1.0, abs(lower)) if strict else lower
+    if floor - slack <= value < floor:
+        return floor
+    if upper < value <= upper + slack:
+        return upper
+    return value

@@ -116,10 +116,18 @@ def zero_rates(dae) -> ca.Function:
 
 
 def zero_rates_noise(dae) -> ca.Function:
-    """(t, x, z, u, p, d) -> [g, ġ, g̈, their round-off]: `zero_rates` and the round-off of each (a few
-    ulps of each state at its scale, max(|x|, nominal), through the rates' Jacobians), in one call:
-    every evaluation of the rates during a run needs both (`StateEvents._rates`)."""
+    """(t, x, z, u, p, d) -> [g, ġ, g̈, noise]: `zero_rates` and the round-off of g (a few ulps of each
+    state at its scale, max(|x|, nominal), through |∂g/∂x|, |∂g/∂z|), in one call: every evaluation
+    of the rates during a run needs both (`StateEvents._rates`)."""
     return built(dae.info, "_zero_rates", lambda: _build_zero_rates(dae))[1]
+
+
+def zero_rates_round_off(dae) -> ca.Function:
+    """(t, x, z, u, p, d) -> [round-off of ġ, of g̈], the same way through the rates' Jacobians: a
+    resting pendulum's acceleration reads 1e-15 rad/s², the round-off of the scene's solve at the scale
+    of gravity, not of the angles. Costs about a Jacobian of the model: asked only where a function sits
+    within g's round-off of its boundary and its rates do not settle it (`StateEvents._at_rest`)."""
+    return built(dae.info, "_zero_rates", lambda: _build_zero_rates(dae))[2]
 
 
 def zero_sensitivity(dae) -> ca.Function:
@@ -166,13 +174,15 @@ def _zero_rates(dae, sym):
     gd = lie(g)
     rates = ca.densify(ca.vertcat(g, gd, lie(gd)))
     eps = 4 * np.finfo(float).eps
-    # the round-off of g, ġ and g̈ alike: a resting pendulum's acceleration reads 1e-15 rad/s², the
-    # round-off of the scene's solve at the scale of gravity, not of the angles
-    noise = ca.mtimes(ca.fabs(ca.jacobian(rates, x)), eps * ca.fmax(ca.fabs(x), ca.DM(dae.x_nominal)))
-    if z.numel():
-        noise = noise + ca.mtimes(ca.fabs(ca.jacobian(rates, z)), eps * ca.fmax(ca.fabs(z), ca.DM(dae.z_nominal)))
+
+    def round_off(e):
+        out = ca.mtimes(ca.fabs(ca.jacobian(e, x)), eps * ca.fmax(ca.fabs(x), ca.DM(dae.x_nominal)))
+        if z.numel():
+            out = out + ca.mtimes(ca.fabs(ca.jacobian(e, z)), eps * ca.fmax(ca.fabs(z), ca.DM(dae.z_nominal)))
+        return out
     return (ca.Function("zero_rates", args, [rates]),
-            ca.Function("zero_rates_noise", args, [ca.densify(ca.vertcat(rates, noise))]))
+            ca.Function("zero_rates_noise", args, [ca.densify(ca.vertcat(rates, round_off(g)))]),
+            ca.Function("zero_rates_round_off", args, [ca.densify(round_off(rates[g.numel():]))]))
 
 
 def _cubic_extrema(g_a, d_a, g_b, d_b, h):
@@ -217,16 +227,20 @@ def _leaving(g, gd, noise, dirs):
     return np.where((np.abs(g) <= noise) & (dirs != 0) & (np.sign(gd) == -dirs), np.sign(gd) * 1e-300, g)
 
 
-def _at_rest(g, gd, gdd, noise, horizon):
+def _at_rest(g, gd, gdd, noise, horizon, rate_round_off):
     """(g, ġ, g̈, rest) with exact zeros for the functions at rest on their boundary: g within its
     round-off and each rate either within its own round-off or too small to move g out of g's within
-    the run (|ġ|·T, |g̈|·T² ≤ g's round-off). `noise` = (g's, ġ's, g̈'s round-off). Such a function (two
+    the run (|ġ|·T, |g̈|·T² ≤ g's round-off). `noise`: g's round-off; `rate_round_off()`: ġ's and g̈'s,
+    asked only where g is within its own and the rates do not settle it. Such a function (two
     touching pendulums hanging at rest) has no side to be on: its round-off wandering across 0 is no
     crossing. Only round-off counts, never a tolerance: a slow closing that the integration resolves is
     an impact, however slow. Works on arrays of points (functions in the last axis)."""
-    n_g, n_gd, n_gdd = noise
-    rest = (np.abs(g) <= n_g) & ((np.abs(gd) * horizon <= n_g) | (np.abs(gd) <= n_gd)) & \
-        ((np.abs(gdd) * horizon ** 2 <= n_g) | (np.abs(gdd) <= n_gdd))
+    close = np.abs(g) <= noise
+    slow_d, slow_dd = np.abs(gd) * horizon <= noise, np.abs(gdd) * horizon ** 2 <= noise
+    rest = close & slow_d & slow_dd
+    if np.any(close & ~rest):
+        n_gd, n_gdd = rate_round_off()
+        rest = close & (slow_d | (np.abs(gd) <= n_gd)) & (slow_dd | (np.abs(gdd) <= n_gdd))
     return np.where(rest, 0.0, g), np.where(rest, 0.0, gd), np.where(rest, 0.0, gdd), rest
 
 
@@ -284,14 +298,25 @@ class StateEvents:
     def _rates(self, t, x, z, left=False):
         """g, ġ, g̈ at (t, x, z), exactly 0 where a function rests on its boundary within round-off
         (`_at_rest`); `left`: at a time event, the left limit of the inputs and signals."""
+        return self._rates_and_round_off(t, x, z, left)[0]
+
+    def _rates_and_round_off(self, t, x, z, left=False):
+        """`_rates` and `_round_off` at one point, from one evaluation."""
         if left and t in getattr(self, "_time_event_times", ()):
             t = np.nextafter(t, -np.inf)
         rates = built(self.dae.info, "_zero_rates_numpy", lambda: NumpyCall(zero_rates_noise(self.dae)))
         out = rates(np.atleast_1d(float(t)), np.atleast_1d(np.asarray(x, dtype=float)),
                     np.atleast_1d(np.asarray(z, dtype=float)), np.atleast_1d(np.asarray(self._u_at(t), dtype=float)),
                     np.atleast_1d(self.p), np.atleast_1d(self.d))[0]
-        g, gd, gdd, *noise = np.asarray(out).ravel().reshape(6, -1)
-        return np.stack(_at_rest(g, gd, gdd, noise, self._horizon())[:3])
+        g, gd, gdd, noise = np.asarray(out).ravel().reshape(4, -1)
+
+        def rate_round_off():
+            fn = built(self.dae.info, "_zero_rates_round_off_numpy", lambda: NumpyCall(zero_rates_round_off(self.dae)))
+            return np.asarray(fn(*args)[0]).ravel().reshape(2, -1)
+        args = (np.atleast_1d(float(t)), np.atleast_1d(np.asarray(x, dtype=float)),
+                np.atleast_1d(np.asarray(z, dtype=float)), np.atleast_1d(np.asarray(self._u_at(t), dtype=float)),
+                np.atleast_1d(self.p), np.atleast_1d(self.d))
+        return np.stack(_at_rest(g, gd, gdd, noise, self._horizon(), rate_round_off)[:3]), noise
 
     def _horizon(self):
         """The run's length (s): how long a function at rest on its boundary must stay within round-off."""
@@ -303,11 +328,7 @@ class StateEvents:
         resolve whatever the tolerance. At its scale, not its value: pendulums hanging at rest read
         angles of 1e-45 rad, the round-off of the scene's solve, and contacts between them saw those
         cross zero."""
-        rates = built(self.dae.info, "_zero_rates_numpy", lambda: NumpyCall(zero_rates_noise(self.dae)))
-        out = rates(np.atleast_1d(float(t)), np.atleast_1d(np.asarray(x, dtype=float)),
-                    np.atleast_1d(np.asarray(z, dtype=float)), np.atleast_1d(np.asarray(self._u_at(t), dtype=float)),
-                    np.atleast_1d(self.p), np.atleast_1d(self.d))[0]
-        return np.asarray(out).ravel().reshape(6, -1)[3]
+        return self._rates_and_round_off(t, x, z)[1]
 
     def _left_of_time_events(self, pts):
         """A piece ending at a time event is judged by its conditions' left limits there (a clutch
@@ -382,7 +403,8 @@ class StateEvents:
         function may move by at most half its size on the piece per interval, to first and second
         order: Δ·|ġ| ≤ s/2 and Δ²·|g̈| ≤ s/4, s = max |g| on the piece (inf when no function moves)."""
         n = pts.size
-        rates = mapped_in(self.dae.info.setdefault("_zero_rate_maps", {}), zero_rates_noise(self.dae), n)
+        # the rates alone: their round-off (Jacobians of ġ and g̈) is not needed here
+        rates = mapped_in(self.dae.info.setdefault("_zero_rate_value_maps", {}), zero_rates(self.dae), n)
         R = rates(pts.reshape(1, -1), xs.T, zs.T, self._inputs_at(pts), np.tile(self.p.reshape(-1, 1), n),
                   np.tile(self.d.reshape(-1, 1), n))[0]
         m = len(self.dae.zero_labels)
@@ -413,9 +435,15 @@ class StateEvents:
                   np.tile(self.d.reshape(-1, 1), n))[0]
         m = len(self.dae.zero_labels)
         dirs = np.array(self.dae.zero_directions)
-        noise = R[3 * m: 4 * m, 0]                      # the round-off of g at the piece's start
-        G, D, _, rest = _at_rest(R[:m].T, R[m: 2 * m].T, R[2 * m: 3 * m].T,
-                                 (R[3 * m: 4 * m].T, R[4 * m: 5 * m].T, R[5 * m:].T), self._horizon())  # (n, m)
+        noise = R[3 * m:, 0]                            # the round-off of g at the piece's start
+
+        def rate_round_off():
+            fn = mapped_in(self.dae.info.setdefault("_zero_round_off_maps", {}), zero_rates_round_off(self.dae), n)
+            Q = fn(judged.reshape(1, -1), xs[:n].T, zs[:n].T, U, np.tile(self.p.reshape(-1, 1), n),
+                   np.tile(self.d.reshape(-1, 1), n))[0]
+            return Q[:m].T, Q[m:].T
+        G, D, _, rest = _at_rest(R[:m].T, R[m: 2 * m].T, R[2 * m: 3 * m].T, R[3 * m:].T, self._horizon(),
+                                 rate_round_off)  # (n, m)
         G = _leaving(G, D, noise, dirs)
         # the side at each point: its sign; at the start the armed side where it was set at that very time
         # (just after an event g may be a round-off on either side) or where g is exactly 0
@@ -446,8 +474,7 @@ class StateEvents:
         """The earliest confirmed crossing in (t_a, t_b]: (functions, lo, x_lo, z_lo, s_lo, hi, x_hi, z_hi),
         where s_lo are the sides at lo; None when re-integration shows none (a grazing prediction)."""
         dirs = np.array(self.dae.zero_directions)
-        ra, rb = self._rates(t_a, x_a, z_a), self._rates(t_b, x_b, z_b, left=True)
-        noise = self._round_off(t_a, x_a, z_a)
+        (ra, noise), rb = self._rates_and_round_off(t_a, x_a, z_a), self._rates(t_b, x_b, z_b, left=True)
         ra[0], rb[0] = _leaving(ra[0], ra[1], noise, dirs), _leaving(rb[0], rb[1], noise, dirs)
         s, ext = _cubic_extrema(ra[0], ra[1], rb[0], rb[1], t_b - t_a)
         ext = np.where(np.abs(ext) <= noise[:, None], np.nan, ext)
