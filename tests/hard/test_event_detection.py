@@ -333,3 +333,56 @@ def test_touching_masses_pushed_by_a_force_step_move_together(step_at):
     together = 0.25 * (1.0 - step_at) ** 2
     assert res["a.s"][-1] == pytest.approx(together, abs=1e-9)
     assert res["b.s"][-1] == pytest.approx(together, abs=1e-9)
+
+
+def _pulled_off_a_wall(s0, e):
+    """A 1 kg mass pushed onto a wall contact by 1 N from s0 (gap −s0), pulled back by a spring (0.5 N/m)
+    to a 1e9 kg mass moving away at 1 m/s: the pull passes 1 N at t = 1 s and the contact lets go."""
+    from mechnet.components import translational as tr
+    m = mn.Model("wall")
+    a = m.add(tr.Mass(name="a", m=1.0, s_start=s0, v_start=0.0))
+    b = m.add(tr.Mass(name="b", m=1e9, s_start=-1.0, v_start=-1.0))
+    w = m.add(tr.Fixed(name="w"))
+    c = m.add(tr.Contact(name="c", e=e))
+    f = m.add(tr.ConstantForce(name="f", f_constant=1.0))
+    spring = m.add(tr.Spring(name="spring", c=0.5))
+    m.connect(a.flange_b, c.flange_a)
+    m.connect(c.flange_b, w.flange)
+    m.connect(f.flange, a.flange_a)
+    m.connect(b.flange_b, spring.flange_a)
+    m.connect(spring.flange_b, a.flange_a)
+    return m.compile()
+
+
+@pytest.mark.parametrize("e", [0.0, 0.5])
+@pytest.mark.parametrize("tolerances", [dict(rtol=1e-10, atol=1e-12), dict()], ids=["tight", "default"])
+def test_a_body_that_came_to_rest_on_a_contact_leaves_it_when_pulled(e, tolerances):
+    """Arriving from 1 mm, the mass comes to rest on the wall ~1e-14 m inside it (the impact's location
+    error); when the contact lets go at 1 s it must leave as the mass started on the wall does (within
+    1e-9 m at 1.5 s, where it is 10 mm away). The gap its condition switched to at the release was read
+    as a new impact: the mass was put back to rest and held in tension to the end (s = 7.7e-15)."""
+    reference = _pulled_off_a_wall(0.0, e).simulate(1.5, n_out=16, **tolerances)
+    res = _pulled_off_a_wall(-1e-3, e).simulate(1.5, n_out=16, **tolerances)
+    assert res.success and res.events[-1].cause.endswith("lets go")
+    assert res.events[-1].t == pytest.approx(1.0, abs=1e-6)
+    assert res["a.s"][-1] == pytest.approx(reference["a.s"][-1], abs=1e-9)
+    assert res["a.s"][-1] < -0.01
+
+
+@pytest.mark.parametrize("e", [0.0, 0.5])
+def test_a_body_at_rest_on_a_contact_leaves_it_when_a_force_reverses(e):
+    """The same mass arriving from 1 mm under +1 N, the force stepping to −1 N at 0.5 s (a time event):
+    the contact lets go then and the mass leaves, s = −½·(t − 0.5)² = −0.125 m at 1 s (within 1e-6 m at
+    the default tolerances). It used to stop in an 'event accumulation' of the release."""
+    from mechnet.components import translational as tr
+    m = mn.Model("wall")
+    a = m.add(tr.Mass(name="a", m=1.0, s_start=-1e-3, v_start=0.0))
+    w = m.add(tr.Fixed(name="w"))
+    c = m.add(tr.Contact(name="c", e=e))
+    f = m.add(tr.Force(name="f"))
+    m.connect(a.flange_b, c.flange_a)
+    m.connect(c.flange_b, w.flange)
+    m.connect(f.flange, a.flange_a)
+    res = m.compile().simulate(1.0, n_out=11, inputs={"f.f": ([0.0, 0.5, 0.5, 1.0], [1.0, 1.0, -1.0, -1.0])})
+    assert res.success
+    assert res["a.s"][-1] == pytest.approx(-0.125, abs=1e-6)

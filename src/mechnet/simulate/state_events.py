@@ -244,6 +244,13 @@ def _at_rest(g, gd, gdd, noise, horizon, rate_round_off):
     return np.where(rest, 0.0, g), np.where(rest, 0.0, gd), np.where(rest, 0.0, gdd), rest
 
 
+def others_of(fired, m) -> np.ndarray:
+    """True for the m functions that are not among `fired`."""
+    others = np.ones(m, dtype=bool)
+    others[list(fired)] = False
+    return others
+
+
 def _hermite_root(t_a, g_a, d_a, t_b, g_b, d_b):
     """The root in (t_a, t_b) of the cubic through (g_a, ġ_a) and (g_b, ġ_b), or None (no rates, or
     no sign change of the cubic inside). Bisection on the cubic then Newton polishing: cheap numbers."""
@@ -647,7 +654,9 @@ class StateEvents:
             replace = True
             for h in fired:
                 self.events.append(Event(float(t_e), "state", self.dae.zero_labels[h]))
-            sides, on, by_rate = self._sides(t_e, self._rates(t_e, self.x, self.z), near)
+            rates_now = self._rates(t_e, self.x, self.z)
+            sides, on, by_rate = self._sides(t_e, rates_now, near)
+            sides = self._settled(t_e, rates_now, sides, on, before, dirs, others_of(fired, len(sides)))
             self._armed, self._armed_at = sides, t_e
             # one that fired and goes on across with speed has completed its crossing (a sensor);
             # one held on its boundary by g̈ alone cannot leave it (a ball at rest): it fires again;
@@ -659,6 +668,21 @@ class StateEvents:
             thrown = set(np.flatnonzero(jumped).tolist())
             fired = sorted({h for h in now if not (h in once and by_rate[h])} | set(np.flatnonzero(jumped).tolist()))
         self._accumulation(t_e, fired[0], f"more than {MAX_CASCADE} rounds of firings at the same instant")
+
+    def _settled(self, t, rates, sides, on, before, dirs, others):
+        """`sides` with the conditions a reset switched on just beyond their boundary put back on the side
+        they were on: within what the integration resolves of g there, and moving back to that side.
+        Their sign is an earlier event's location error, not a crossing: a body that came to rest on a
+        contact sits ~1e-14 m inside it, and when the contact lets go its condition (a constant while
+        resting) becomes that gap; read as a new impact, it put the body back to rest and held it in
+        tension for the rest of the run."""
+        g, gd, gdd = rates
+        candidates = others & ~on & _allowed(dirs, before, sides) & (before != 0)
+        if not candidates.any():
+            return sides
+        moving = np.where(np.abs(gd) > np.abs(gdd) * self._tol_t(t), np.sign(gd), np.sign(gdd))
+        settle = candidates & (np.abs(g) <= self._resolved(t, self.x, self.z)) & (moving == before)
+        return np.where(settle, before, sides)
 
     def _accumulation(self, t, i, why):
         """Events of condition i accumulate at t: end them through its rest transition (a plastic jump
@@ -696,8 +720,15 @@ class StateEvents:
 
     def _time_resolution(self, t, x, z, gd):
         """How precisely the integration fixes the time of each function's event at (t, x, z): the error
-        the tolerances allow in x and z, carried into g (∂g/∂x, ∂g/∂z), over the speed |ġ| at which g
-        crosses; never below the location tolerance."""
+        the tolerances allow in g (`_resolved`) over the speed |ġ| at which g crosses; never below the
+        location tolerance."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            dt = self._resolved(t, x, z) / np.abs(gd)
+        return np.maximum(np.nan_to_num(dt, nan=0.0, posinf=np.inf), self._tol_t(t))
+
+    def _resolved(self, t, x, z):
+        """The error the tolerances allow in each zero function's value at (t, x, z): rtol·|x| + atol·x_n
+        in x and z, carried into g (∂g/∂x, ∂g/∂z)."""
         rtol, atol = self.settings[2], self.settings[3]
         x, z = np.asarray(x, dtype=float), np.asarray(z, dtype=float)
         sensitivity = built(self.dae.info, "_zero_sensitivity_numpy", lambda: NumpyCall(zero_sensitivity(self.dae)))
@@ -707,9 +738,7 @@ class StateEvents:
         dg = np.abs(np.asarray(jx)) @ (rtol * np.abs(x) + atol * self.xn)
         if z.size:
             dg = dg + np.abs(np.asarray(jz)) @ (rtol * np.abs(z) + atol * self.zn)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dt = np.asarray(dg).ravel() / np.abs(gd)
-        return np.maximum(np.nan_to_num(dt, nan=0.0, posinf=np.inf), self._tol_t(t))
+        return np.asarray(dg).ravel()
 
     def _check_accumulation(self):
         """Stop the run at a Zeno point, judged from the events of the condition that fired last: its
