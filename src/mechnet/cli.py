@@ -329,8 +329,8 @@ def _simulate(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     cm = scene.model().compile()
     t_compile = time.perf_counter() - t0
+    scene.check_plot(cm.names)        # a typo in `plot` is found now, --plot or not, before any output
     print(cm.summary())
-    scene.check_plot(cm.names)        # a typo in `plot` is found now, --plot or not
 
     # Only options the user gave are passed on, so the simulator's own defaults apply.
     options = {key: value for key, value in

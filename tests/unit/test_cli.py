@@ -194,6 +194,15 @@ def test_a_typo_in_plot_names_is_reported_with_or_without_plot(tmp_path, capsys,
     assert not png.exists()
 
 
+def test_a_typo_in_plot_names_is_reported_before_the_summary(tmp_path, capsys):
+    """The error is the only output: no model summary printed before it (issue 32, item 7)."""
+    path = scene_file(tmp_path, OSCILLATOR_SCENE.replace('plot = ["j.phi"]', 'plot = ["j.phy"]'))
+    assert main(["simulate", str(path)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert "'j.phy'" in captured.err
+
+
 def test_simulate_overlays_the_reference_and_prints_its_error(tmp_path, capsys, monkeypatch):
     """reference(t) = 0.5 cos(sqrt(c/J) t) is the exact solution: the printed error is the solver's alone."""
     path = scene_file(tmp_path, OSCILLATOR_SCENE + textwrap.dedent("""
