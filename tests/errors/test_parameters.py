@@ -168,3 +168,18 @@ def test_simulate_params_accepts_a_valid_value(tunable_oscillator):
     """Guard for the test above: the same call with a physical value works (w = sqrt(c/J))."""
     res = tunable_oscillator.simulate(0.1, n_out=3, params={"s.c": 4.0})
     assert res["j1.phi"][-1] == pytest.approx(0.5 * math.cos(2.0 * 0.1), rel=1e-5)
+
+
+@pytest.mark.parametrize("kwargs, typo, meant", [
+    ({"phimin": -1.0, "phi_max": 1.0}, "phimin", "phi_min"),                  # a required keyword misspelled
+    ({"phi_min": NAN, "phi_max": 1.0, "v_rets": 0.1}, "v_rets", "v_rest"),    # before a bad value is checked
+    ({"phi_min": -1.0, "phi_max": 1.0, "phi_rel_strat": 0.0}, "phi_rel_strat", "phi_rel_start"),
+])
+def test_a_misspelled_keyword_is_reported_as_unknown_first(kwargs, typo, meant):
+    """Issue 32, item 7: `phimin=` was reported as the missing `phi_min`, not as the unknown `phimin`."""
+    with pytest.raises(mn.ParameterError) as info:
+        rot.HardStop(name="stop", **kwargs)
+    message = str(info.value)
+    assert isinstance(info.value, mn.MechnetError)
+    assert message.startswith(f"stop (HardStop): unknown argument(s) {typo} (did you mean {meant}?)"), message
+    assert "is required" not in message

@@ -138,6 +138,9 @@ class Component:
         self.input_defaults: dict[str, float] = {}
         self.signals: dict[str, object] = {}
         label = f"{name} ({type(self).__name__})"
+        unknown = sorted(set(kwargs) - self._accepted_keywords())
+        if unknown:        # first: a misspelled `phimin=` is the error, not the `phi_min` it leaves missing
+            raise ParameterError(self._unknown_arguments(label, unknown))
         for key, decl in self._declarations.items():
             if isinstance(decl, Flag):
                 value = kwargs.pop(key, decl.default)
@@ -210,6 +213,17 @@ class Component:
         if what == "nominal" and not np.all(arr > 0):
             raise ParameterError(f"{label}: {key}_nominal = {value!r} must be > 0 (it scales the tolerance)")
         return arr
+
+    @classmethod
+    def _accepted_keywords(cls) -> set:
+        """The keywords __init__ takes from **kwargs below: flags, params, inputs, <variable>_start/_guess/_nominal."""
+        accepted = set()
+        for key, decl in cls._declarations.items():
+            if isinstance(decl, (Flag, Param, Input)):
+                accepted.add(key)
+            if isinstance(decl, Variable):
+                accepted.update(f"{key}_{what}" for what in ("start", "guess", "nominal"))
+        return accepted
 
     def _unknown_arguments(self, label: str, unknown: list) -> str:
         valid = keyword_names(type(self))       # the same list the signature shows
