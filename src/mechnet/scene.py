@@ -175,11 +175,20 @@ def load_scene(path: str | Path) -> Scene:
     # Registered before execution so that dataclasses, pickling and relative
     # look-ups inside the scene file see their own module.
     sys.modules[module_name] = module
+    # The scene's folder is first on sys.path while it runs, so that it can import a helper module
+    # beside it (as `python scene.py` would); sys.path is put back afterwards.
+    folder = str(path.parent)
+    sys.path.insert(0, folder)
     try:
         spec.loader.exec_module(module)
     except (Exception, SystemExit) as exc:
         sys.modules.pop(module_name, None)
         raise scene_failure(path, exc, "importing the scene file") from exc
+    finally:
+        try:
+            sys.path.remove(folder)
+        except ValueError:              # the scene took it off itself
+            pass
 
     build = getattr(module, "build", None)
     if build is None:

@@ -117,3 +117,24 @@ def test_model_rejects_a_non_model(tmp_path):
     scene = load_scene(write(tmp_path, "returns_none.py", "def build():\n    return None\n"))
     with pytest.raises(SceneError, match=r"returns_none\.py.*NoneType.*mechnet\.Model"):
         scene.model()
+
+
+@pytest.mark.parametrize("fails", [False, True])
+def test_a_scene_imports_a_helper_module_beside_it(tmp_path, fails):
+    """Issue 32, item 7: `import helper` in a scene failed; its folder is on sys.path while it loads, then not."""
+    import sys
+
+    module = f"_mechnet_test_helper_{'fails' if fails else 'ok'}"
+    write(tmp_path, f"{module}.py", "VALUE = 42\n")
+    body = f"import {module}\nt_end = {module}.VALUE\n" + ("raise RuntimeError('boom')\n" if fails else "")
+    path = write(tmp_path, "uses_helper.py", body + "def build():\n    return None\n")
+    before = list(sys.path)
+    try:
+        if fails:
+            with pytest.raises(SceneError, match="boom"):
+                load_scene(path)
+        else:
+            assert load_scene(path).t_end == 42
+    finally:
+        sys.modules.pop(module, None)
+    assert sys.path == before
