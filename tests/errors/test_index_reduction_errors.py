@@ -49,6 +49,38 @@ def test_external_input_that_would_need_differentiating():
         m.compile()
 
 
+@pytest.mark.parametrize("lib, source, key, value, state, start", [
+    (rot, rot.Speed, "w_ref", 2.0, "w", {"src.phi": 0.0}),
+    (rot, rot.Position, "phi_ref", 3, "phi", {}),
+    (tr, tr.Speed, "v_ref", 0.5, "v", {"src.s": 0.0}),
+    (tr, tr.Position, "s_ref", 0.25, "s", {}),
+], ids=["rot.Speed", "rot.Position", "tr.Speed", "tr.Position"])
+def test_a_number_as_a_motion_reference_is_a_constant(lib, source, key, value, state, start):
+    """Issue 32, item 7: `rot.Speed(w_ref=2.0)` rigidly on an inertia failed index reduction (the number
+    was an external input's default); it is the constant signal, differentiable, and drives the body."""
+    import numpy as np
+
+    rotational = lib is rot
+    m = mn.Model("constant_drive")
+    src = m.add(source(name="src", **{key: value}))
+    driven = m.add(rot.Inertia(name="b", J=1.0) if rotational else tr.Mass(name="b", m=1.0))
+    spring = m.add(lib.Spring(name="k", c=1.0))
+    free = m.add(rot.Inertia(name="f", J=1.0) if rotational else tr.Mass(name="f", m=1.0))
+    m.connect(src.flange, driven.flange_a)
+    m.connect(driven.flange_b, spring.flange_a)
+    m.connect(spring.flange_b, free.flange_a)
+    cm = m.compile()
+    assert f"src.{key}" not in cm.input_names
+    position = "phi" if rotational else "s"
+    res = cm.simulate(1.0, start={**start, f"f.{position}": 0.0, f"f.{'w' if rotational else 'v'}": 0.0})
+    assert np.max(np.abs(res[f"b.{state}"] - value)) < 1e-9
+
+
+def test_a_motion_reference_that_is_not_a_number_is_still_refused():
+    with pytest.raises(mn.ParameterError, match=r"src \(Speed\): w_ref.* = '2' is not a number"):
+        rot.Speed(name="src", w_ref="2")
+
+
 def test_inconsistent_fixed_values_name_the_constraint_and_residual():
     # x = 2 is impossible on a rod of length 1: initialisation names the rod equation and its residual
     m = mn.Model("pendulum")

@@ -8,9 +8,28 @@ torque into the source, so the torque it delivers to the driven side is
 """
 from __future__ import annotations
 
-from ...core.declarations import Input, Param, State, Var
+import math
+import numbers
+
+from ...core.declarations import Input, not_a_number, Param, State, Var
 from ...core.equation import Eq, der
+from ..signals import Constant
 from .interfaces import PartialOneFlange
+
+
+class NumberIsConstant:
+    """Mixin for a motion source whose reference index reduction differentiates (Position, Speed): a number
+    given for it (`Speed(w_ref=2.0)`) is the constant signal `Constant(2.0)`, which can be differentiated,
+    not an external input with that default, which cannot (a rigid attachment failed to compile). Left out,
+    the reference stays an external input."""
+
+    _reference: str = ""
+
+    def __init__(self, name: str, **kwargs):
+        value = kwargs.get(self._reference)
+        if (isinstance(value, numbers.Real) and not not_a_number(value) and math.isfinite(value)):
+            kwargs[self._reference] = Constant(value)
+        super().__init__(name, **kwargs)
 
 
 class Torque(PartialOneFlange):
@@ -31,7 +50,7 @@ class ConstantTorque(PartialOneFlange):
         return [Eq(self.flange.tau, -self.tau_constant, "the source drives its flange with +tau_constant")]
 
 
-class Position(PartialOneFlange):
+class Position(NumberIsConstant, PartialOneFlange):
     """Prescribed angle: flange.phi = phi_ref (an input, or a signal such as a Sine).
 
     flange.tau is the cut torque into the source (Modelica convention), so the
@@ -47,13 +66,14 @@ class Position(PartialOneFlange):
     `StructureError` naming this source or its input.
     """
 
+    _reference = "phi_ref"
     phi_ref = Input(unit="rad", doc="prescribed angle of the flange")
 
     def equations(self):
         return [Eq(self.flange.phi, self.phi_ref, "the flange follows phi_ref")]
 
 
-class Speed(PartialOneFlange):
+class Speed(NumberIsConstant, PartialOneFlange):
     """Prescribed angular velocity: der(flange.phi) = w_ref (an input, or a signal).
 
     `phi` is the flange angle (`phi_start=` fixes it when nothing else does).
@@ -70,6 +90,7 @@ class Speed(PartialOneFlange):
     its input.
     """
 
+    _reference = "w_ref"
     w_ref = Input(unit="rad/s", doc="prescribed angular velocity of the flange")
     phi = Var(unit="rad", doc="absolute angle of the flange")
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from ...core.declarations import Input, Param, State, Var
 from ...core.equation import Eq, der
+from ..rotational.sources import NumberIsConstant
 from .interfaces import PartialOneFlange
 
 
@@ -33,20 +34,21 @@ class ConstantForce(PartialOneFlange):
         return [Eq(self.flange.f, -self.f_constant, "the source drives its flange with +f_constant")]
 
 
-class Position(PartialOneFlange):
+class Position(NumberIsConstant, PartialOneFlange):
     """Prescribed position: flange.s = s_ref (an input, or a signal such as a road profile).
 
     Through a compliant element (a tyre spring) this is an ordinary equation.
     Attached rigidly to a mass it fixes a state, which needs index reduction.
     """
 
+    _reference = "s_ref"
     s_ref = Input(unit="m", doc="prescribed position of the flange")
 
     def equations(self):
         return [Eq(self.flange.s, self.s_ref, "the flange follows s_ref")]
 
 
-class Speed(PartialOneFlange):
+class Speed(NumberIsConstant, PartialOneFlange):
     """Prescribed velocity: der(flange.s) = v_ref (an input, or a signal).
 
     `s` is the flange position (`s_start=` fixes it when nothing else does).
@@ -62,6 +64,7 @@ class Speed(PartialOneFlange):
     enough, compilation raises `StructureError` naming this source or its input.
     """
 
+    _reference = "v_ref"
     v_ref = Input(unit="m/s", doc="prescribed velocity of the flange")
     s = Var(unit="m", doc="absolute position of the flange")
 
