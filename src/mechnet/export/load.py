@@ -3,10 +3,13 @@ from __future__ import annotations
 
 import sys
 import json
+import math
+import struct
 import warnings
 from pathlib import Path
 
 import casadi as ca
+import numpy as np
 
 from ..caches import BUILD_LOCK
 from ..compile.artifacts import Selection, SemiExplicitDAE
@@ -35,22 +38,275 @@ def read_record(path) -> dict:
     return record
 
 
+# --- inspecting a serialised function before CasADi reads it -------------------------------------------
+# `Function.save` writes CasADi's serialisation: every byte as two letters ('a' + low nibble, then 'a' + high
+# nibble), a header (a check number, the protocol version, a debug flag), then the function. Every function
+# in it, nested ones included, is a shared definition: the flag 'd', a null flag (0 for a function), and the
+# name of its base class as a length-prefixed string, then its fields: ProtoFunction's (version 2: the name,
+# five flags), FunctionInternal's (version 9: differentiability, sparsities, names, then the JIT fields:
+# jit, jit_cleanup, jit_serialize, jit_temp_suffix, jit_base_name, jit_options, compiler_plugin).
+# Reading a file CasADi compiles a function whose `jit` is set, with the compiler command of its
+# `jit_options` (a shell command), and opens the shared library of an `External`; a jit_serialize of
+# "embed" or "link" writes and opens a library. So before `Function.load`, every place the file could
+# hold a function definition (every byte string CasADi would read as one, wherever it sits) is looked at:
+# its class must be one mechnet writes, and its JIT fields the defaults (no jit, "source", no options,
+# the "shell" plugin name mechnet never uses).
+_CHECK, _PROTOCOL = 123456789012345, 3
+_WRITTEN = ("SXFunction", "MXFunction", "Switch")          # the classes mechnet's exports hold
+_CASADI_CLASSES = ("MXFunction", "SXFunction", "Interpolant", "Switch", "Map", "MapSum", "Nlpsol", "Rootfinder",
+                   "Integrator", "External", "Conic", "FmuFunction", "BlazingSplineFunction", "Onnx")
+_PROTO_VERSION, _FUNCTION_VERSIONS = 2, (9,)
+
+
+def _decoded(data: bytes) -> bytes:
+    """The bytes CasADi's DeserializingStream reads from `data` (two characters a byte, as it reads them)."""
+    raw = np.frombuffer(data[:len(data) // 2 * 2], dtype=np.uint8).astype(np.int64)
+    return (((raw[0::2] - 97) + ((raw[1::2] - 97) << 4)) & 0xFF).astype(np.uint8).tobytes()
+
+
+class _Reader:
+    def __init__(self, data: bytes, at: int):
+        self.data, self.at = data, at
+
+    def take(self, n: int) -> bytes:
+        if n < 0 or self.at + n > len(self.data):
+            raise ValueError("the file ends inside a function's fields")
+        out = self.data[self.at:self.at + n]
+        self.at += n
+        return out
+
+    def int32(self) -> int:
+        return struct.unpack("<i", self.take(4))[0]
+
+    def int64(self) -> int:
+        return struct.unpack("<q", self.take(8))[0]
+
+    def flag(self) -> bool:
+        return self.take(1) != b"\x00"
+
+    def string(self) -> str:
+        return self.take(self.int32()).decode("latin-1")
+
+    def count(self) -> int:
+        n = self.int64()
+        if n < 0 or n > len(self.data):
+            raise ValueError(f"a list of {n} entries")
+        return n
+
+    def sparsity(self):
+        kind = self.take(1)
+        if kind == b"d":
+            self.take(8 * self.count())
+        elif kind == b"r":
+            self.int64()
+        else:
+            raise ValueError(f"a sparsity flagged {kind!r}")
+
+
+def _function_fields(data: bytes, at: int, cls: str) -> str | None:
+    """Why the function whose fields start at `at` could run code when read (None: it cannot)."""
+    r = _Reader(data, at)
+    if r.int32() != _PROTO_VERSION:
+        return f"{cls} is in a serialisation version this mechnet cannot check"
+    name = r.string()
+    r.take(5)
+    if r.int32() not in _FUNCTION_VERSIONS:
+        return f"{cls} {name!r} is in a serialisation version this mechnet cannot check"
+    for _ in range(2):
+        r.take(r.count())
+    for _ in range(2):
+        for _ in range(r.count()):
+            r.sparsity()
+    for _ in range(2):
+        for _ in range(r.count()):
+            r.string()
+    jit, _cleanup, serialize = r.flag(), r.flag(), r.string()
+    if jit:
+        return f"function {name!r} is to be JIT-compiled (option 'jit')"
+    if serialize != "source":
+        return f"function {name!r} carries a compiled library (jit_serialize={serialize!r})"
+    r.flag()
+    r.string()
+    if r.int64() != 0:
+        return f"function {name!r} carries 'jit_options' (a compiler command)"
+    plugin = r.string()
+    if plugin not in ("shell", ""):
+        return f"function {name!r} names the compiler plugin {plugin!r} (option 'compiler')"
+    return None
+
+
+def inspect_function_file(file) -> None:
+    """Refuse (ExportError naming the file) a serialised CasADi function that could run code when read:
+    one with a function of a class mechnet does not write (an `External` opens a shared library), or with
+    JIT options (`jit`, `compiler`, `jit_options`, an embedded or linked library). Nothing is deserialised."""
+    file = Path(file)
+    try:
+        data = _decoded(file.read_bytes())
+    except OSError as exc:
+        raise ExportError(f"load: {file} cannot be read: {exc}") from None
+    head = _Reader(data, 0)
+    try:
+        check, protocol, debug = head.int64(), head.int64(), head.flag()
+    except ValueError:
+        check = protocol = debug = None
+    if check != _CHECK or protocol != _PROTOCOL or debug:
+        raise ExportError(f"load: {file} is not a CasADi function serialised as mechnet writes one "
+                          f"(refused unread)")
+    for cls in _CASADI_CLASSES:
+        key = b"d\x00" + struct.pack("<i", len(cls)) + cls.encode()
+        at = data.find(key)
+        while at >= 0:
+            if cls not in _WRITTEN:
+                raise ExportError(f"load: {file} holds a CasADi {cls} function, which mechnet never exports "
+                                  f"and which could run code when read (refused unread)")
+            try:
+                reason = _function_fields(data, at + len(key), cls)
+            except (ValueError, struct.error, UnicodeDecodeError) as exc:
+                reason = f"a {cls} whose fields cannot be checked ({exc})"
+            if reason is not None:
+                raise ExportError(f"load: {file}: {reason}; it could run code when read (refused unread)")
+            at = data.find(key, at + 1)
+
+
+def _member(path: Path, value, key: str) -> Path:
+    """The file `value` of model.json's `key`, confined to the export folder `path`."""
+    if not isinstance(value, str) or not value:
+        raise ExportError(f"load: model.json {key} must be a file name in {path}, not {value!r}")
+    candidate = Path(value)
+    if candidate.is_absolute() or ".." in candidate.parts:
+        raise ExportError(f"load: model.json {key} = {value!r} leaves the export folder {path}; "
+                          f"give a file name inside it")
+    file = path / candidate
+    try:
+        inside = file.resolve(strict=True).is_relative_to(path.resolve(strict=True))
+    except (OSError, RuntimeError):
+        raise ExportError(f"load: model.json {key} = {value!r}: {file} is missing") from None
+    if not inside:
+        raise ExportError(f"load: model.json {key} = {value!r} leads out of the export folder {path} "
+                          f"(a link); refused")
+    if not file.is_file():
+        raise ExportError(f"load: model.json {key} = {value!r}: {file} is not a file")
+    return file
+
+
+def _function(path: Path, value, key: str) -> ca.Function:
+    file = _member(path, value, key)
+    inspect_function_file(file)
+    try:
+        return ca.Function.load(str(file))
+    except RuntimeError as exc:
+        raise ExportError(f"load: model.json {key}: {file} is not a CasADi function CasADi can read: "
+                          f"{str(exc).strip().splitlines()[-1][:300]}") from None
+
+_CONTRACT = ("ode", "alg", "observed", "invariants", "zero")
+_NUMBER_FIELDS = {"x": ("nominal",), "z": ("nominal",), "u": ("default",), "p": ("value",), "d": ("start",),
+                  "observed": ("nominal",)}
+
+
+def _check_record(path: Path, record: dict, fns: dict) -> None:
+    """model.json's entries `load` reads: of the right types, finite, and as many as the functions take
+    (ExportError naming the key). It catches an edited or mixed-up record, not a crafted folder."""
+    def fail(key, why):
+        raise ExportError(f"load: {path / 'model.json'} {key}: {why}")
+
+    def number(value, key):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            fail(key, f"must be a finite number, not {value!r}")
+
+    def listed(key, kind=list):
+        value = record.get(key)
+        if not isinstance(value, kind):
+            fail(repr(key), f"must be a {'list' if kind is list else 'mapping'}, not {value!r}"
+                 if key in record else "is missing")
+        return value
+
+    if not isinstance(record.get("name"), str):
+        fail("'name'", f"must be a string, not {record.get('name')!r}")
+    for key, fields in _NUMBER_FIELDS.items():
+        for k, entry in enumerate(listed(key)):
+            where = f"{key}[{k}]"
+            if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
+                fail(where, f"must be a record with a \"name\" string, not {entry!r}")
+            for field in fields:
+                number(entry.get(field), f"{where}[{field!r}]")
+            if key == "observed" and not isinstance(entry.get("unit"), str):
+                fail(f"{where}['unit']", f"must be a string, not {entry.get('unit')!r}")
+    args = {"x": 1, "z": 2, "u": 3, "p": 4, "d": 5}
+    for key, k in args.items():
+        if fns["ode"].n_in() != 6 or fns["ode"].numel_in(k) != len(record[key]):
+            fail(repr(key), f"lists {len(record[key])} entries; ode.casadi takes "
+                            f"{fns['ode'].numel_in(k) if fns['ode'].n_in() == 6 else '?'}")
+    if fns["observed"].numel_out(0) != len(record["observed"]):
+        fail("'observed'", f"lists {len(record['observed'])} entries; observed.casadi gives "
+                           f"{fns['observed'].numel_out(0)}")
+    for k, entry in enumerate(listed("declared_starts")):
+        if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
+            fail(f"declared_starts[{k}]", f"must be a record with a \"name\" string, not {entry!r}")
+        number(entry.get("value"), f"declared_starts[{k}]['value']")
+    for name, value in listed("guesses", dict).items():
+        number(value, f"guesses[{name!r}]")
+    zero = listed("zero")
+    for k, entry in enumerate(zero):
+        if not isinstance(entry, dict) or not isinstance(entry.get("label"), str) \
+                or entry.get("direction") not in (-1, 0, 1):
+            fail(f"zero[{k}]", f"must be a record with a \"label\" and a direction -1, 0 or 1, not {entry!r}")
+    if fns["zero"].numel_out(0) != len(zero) or len(fns["transition"]) != len(zero):
+        fail("'zero'", f"lists {len(zero)} events; zero.casadi gives {fns['zero'].numel_out(0)} and "
+                       f"{len(fns['transition'])} transitions are listed")
+    for k, entry in enumerate(listed("time_events")):
+        if not isinstance(entry, list) or len(entry) != 2:
+            fail(f"time_events[{k}]", f"must be [time, cause], not {entry!r}")
+        number(entry[0], f"time_events[{k}][0]")
+    for key in ("invariants", "alg_labels", "folded_parameters"):
+        listed(key)
+    for key in ("linear_tears", "parameter_requirements", "quaternions"):
+        if key in record:
+            listed(key)
+    selection = listed("selection", dict)
+    if not isinstance(selection.get("holds"), bool) or not isinstance(selection.get("states"), list) \
+            or not isinstance(selection.get("reason"), str):
+        fail("'selection'", f"must hold \"holds\" (true/false), \"states\" and \"reason\", not {selection!r}")
+
+
 def load(path) -> "LoadedModel":
     """The model of a kind="casadi" export: it simulates, linearises and exports again like the
     compiled model it came from (the same functions, evaluated bitwise alike), with the choice of
-    states the export holds (`model.json` "selection")."""
+    states the export holds (`model.json` "selection").
+
+    Nothing in the folder runs: each function file is inspected before CasADi reads it and refused
+    (ExportError naming the file) when it holds a class mechnet never writes (an `External` library) or
+    JIT settings; model.json's files must lie in the folder and its entries are checked, with errors
+    naming the key. The checks catch a mixed-up folder, not a crafted one holding another model's
+    consistent functions (docs/export.md, "What is trusted")."""
     path = Path(path)
     record = read_record(path)
     if record.get("kind") != "casadi":
         hint = (" (a kind='c' export: mechnet.export.load_library gives its functions)"
                 if record.get("kind") == "c" else "")
         raise ExportError(f"load: {path} is a kind={record.get('kind')!r} export; load reads kind='casadi'{hint}")
+    files = record.get("files")
+    if not isinstance(files, dict):
+        raise ExportError(f"load: model.json \"files\" must map each function to its file in {path}, "
+                          f"not {files!r}")
+    for key in ("transition", "rest"):
+        if not isinstance(files.get(key, []), list):
+            raise ExportError(f"load: model.json files[{key!r}] must be a list of file names, "
+                              f"not {files.get(key)!r}")
+    transitions = files.get("transition", [])
+    rests = files.get("rest", [None] * len(transitions))
+    if len(rests) != len(transitions):
+        raise ExportError(f"load: model.json files['rest'] holds {len(rests)} entries for "
+                          f"{len(transitions)} transitions")
+    missing = [name for name in _CONTRACT if name not in files]
+    if missing:
+        raise ExportError(f"load: model.json files lacks {', '.join(map(repr, missing))}")
     with BUILD_LOCK:
-        fns = {name: ca.Function.load(str(path / file)) for name, file in record["files"].items()
+        fns = {name: _function(path, file, f"files[{name!r}]") for name, file in files.items()
                if name not in ("transition", "rest")}
-        fns["transition"] = tuple(ca.Function.load(str(path / f)) for f in record["files"]["transition"])
-        fns["rest"] = tuple(None if f is None else ca.Function.load(str(path / f))
-                            for f in record["files"].get("rest", [None] * len(fns["transition"])))
+        fns["transition"] = tuple(_function(path, f, f"files['transition'][{k}]") for k, f in enumerate(transitions))
+        fns["rest"] = tuple(None if f is None else _function(path, f, f"files['rest'][{k}]")
+                            for k, f in enumerate(rests))
+    _check_record(path, record, fns)
     selection = record["selection"]
     if not selection["holds"]:
         warnings.warn(f"model {record['name']!r} loaded from {path} keeps the states {', '.join(selection['states'])} "
@@ -61,7 +317,9 @@ def load(path) -> "LoadedModel":
 
 def load_library(path) -> dict:
     """The functions of a kind="c" export, from its shared library (CasADi `external`), by contract
-    name: "ode", "alg", ..., "transition_0", ..."""
+    name: "ode", "alg", ..., "transition_0", ...
+
+    The library is native code: loading it runs it. Load only libraries you trust."""
     path = Path(path)
     record = read_record(path)
     if record.get("kind") != "c":

@@ -1,0 +1,124 @@
+"""export.load refuses, before CasADi reads them, function files that would run code when read (a JIT
+compiler command, an External library), and model.json entries that leave the folder or are tampered."""
+import json
+import os
+import shutil
+import subprocess
+
+import casadi as ca
+import pytest
+
+from mechnet.export import ExportError, compiler, load
+from models import cartesian_pendulum
+
+needs_cc = pytest.mark.skipif(compiler() is None, reason="no C compiler on this machine")
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    return cartesian_pendulum().compile().export(tmp_path_factory.mktemp("exp") / "pendulum")
+
+
+@pytest.fixture
+def folder(exported, tmp_path):
+    return shutil.copytree(exported, tmp_path / "copy")
+
+
+def _like(folder, name):
+    """A Function of ode's signature, evaluated like x -> xdot = 0."""
+    ode = ca.Function.load(str(folder / "ode.casadi"))
+    args = ode.sx_in()
+    return ca.Function(name, args, [ca.SX.zeros(ode.sparsity_out(0))], ode.name_in(), ode.name_out())
+
+
+def test_an_export_loads(folder):
+    assert load(folder).record["name"]
+
+
+@needs_cc
+def test_a_jit_compiler_command_is_refused_unrun(folder, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    marker = tmp_path / "MARKER"
+    ode = ca.Function.load(str(folder / "ode.casadi"))
+    args = ode.sx_in()
+    crafted = ca.Function("ode", args, ode.call(args), ode.name_in(), ode.name_out(),
+                          {"jit": True, "compiler": "shell", "jit_options": {"compiler": f"touch {marker}; gcc"}})
+    marker.unlink()                            # made while building the payload: it does run code
+    crafted.save(str(folder / "ode.casadi"))
+    with pytest.raises(ExportError, match=r"ode\.casadi.*jit"):
+        load(folder)
+    assert not marker.exists()
+
+
+@needs_cc
+def test_an_external_library_is_refused_unopened(folder, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    marker = tmp_path / "MARKER_EXT"
+    inner = _like(folder, "evil")
+    cg = ca.CodeGenerator("evil.c")
+    cg.add(inner)
+    cg.generate(str(tmp_path) + os.sep)
+    with open(tmp_path / "evil.c", "a") as src:
+        src.write(f'\n#include <stdio.h>\n__attribute__((constructor)) static void mark(void) '
+                  f'{{ FILE* f = fopen("{marker}", "w"); if (f) fclose(f); }}\n')
+    library = folder / "libevil.so"
+    subprocess.run(["gcc", "-shared", "-fPIC", str(tmp_path / "evil.c"), "-o", str(library), "-lm"], check=True)
+    ext = ca.external("evil", str(library))
+    marker.unlink()
+    args = ext.mx_in()
+    ca.Function("observed", args, ext.call(args)).save(str(folder / "invariants.casadi"))
+    with pytest.raises(ExportError, match=r"invariants\.casadi.*External"):
+        load(folder)
+    assert not marker.exists()
+
+
+@pytest.mark.parametrize("options, words", [({"jit": True, "compiler": "shell"}, "jit"),
+                                            ({"jit_options": {"compiler": "touch X; gcc"}}, "jit_options")])
+def test_jit_options_are_refused_even_without_a_compiler(folder, options, words):
+    ode = ca.Function.load(str(folder / "ode.casadi"))
+    args = ode.sx_in()
+    try:
+        ca.Function("ode", args, ode.call(args), ode.name_in(), ode.name_out(), options).save(
+            str(folder / "ode.casadi"))
+    except RuntimeError:
+        pytest.skip("CasADi will not build this function here")
+    with pytest.raises(ExportError, match=rf"ode\.casadi.*{words}"):
+        load(folder)
+
+
+def _tamper(folder, change):
+    record = json.loads((folder / "model.json").read_text())
+    change(record)
+    (folder / "model.json").write_text(json.dumps(record))
+
+
+@pytest.mark.parametrize("value", ["../ode.casadi", "/etc/passwd", "sub/../../ode.casadi"])
+def test_files_outside_the_folder_are_refused(folder, value):
+    _tamper(folder, lambda r: r["files"].__setitem__("alg", value))
+    with pytest.raises(ExportError, match=r"files\['alg'\]"):
+        load(folder)
+
+
+def test_a_link_leaving_the_folder_is_refused(folder, tmp_path):
+    outside = tmp_path / "outside.casadi"
+    shutil.copy(folder / "alg.casadi", outside)
+    (folder / "link.casadi").symlink_to(outside)
+    _tamper(folder, lambda r: r["files"].__setitem__("alg", "link.casadi"))
+    with pytest.raises(ExportError, match=r"files\['alg'\].*out of the export folder"):
+        load(folder)
+
+
+@pytest.mark.parametrize("change, key", [
+    (lambda r: r["files"].pop("ode"), "'ode'"),
+    (lambda r: r.pop("x"), "'x'"),
+    (lambda r: r.pop("selection"), "'selection'"),
+    (lambda r: r["x"].pop(), "'x'"),
+    (lambda r: r["p"][0].__setitem__("value", "NaN") if r["p"] else r["x"][0].__setitem__("nominal", None),
+     r"\]\["),
+    (lambda r: r.__setitem__("files", [1]), "files"),
+    (lambda r: r["files"].__setitem__("transition", 3), "transition"),
+])
+def test_tampered_keys_are_named(folder, change, key):
+    _tamper(folder, change)
+    with pytest.raises(ExportError, match=key):
+        load(folder)
