@@ -114,7 +114,45 @@ class CompiledModel:
         return export(self, path, kind, fmi=fmi, overwrite=overwrite)
 
     def simulate(self, t_end: float, **kwargs):
-        """Integrate from t = 0 (or `t_start`) to `t_end`; see `mechnet.simulate.simulate`."""
+        """Integrate from t = 0 (or `t_start`) to `t_end` (s) and return a `Result`.
+
+        Keyword settings (all optional; `mechnet.simulate.integrator.simulate` does the work):
+
+        t_start : s, default None (0)
+            start time; with `continue_from`, only its final time is allowed.
+        rtol : 1, default 1e-6
+            relative error each step may make, in [1e-14, 1).
+        atol : a variable's unit per unit of its nominal, default 1e-8
+            absolute error each step may make (what holds near zero); must be > 0.
+        method : default "auto"
+            "auto", "idas", "cvodes-bdf" or "cvodes-adams". "auto": CVODES Adams for an explicit ODE,
+            BDF from the first sign of stiffness on; IDAS for a DAE (`res.stats["method"]`).
+        n_out : output points, default None (501)
+            evenly spaced output times from t_start to t_end (at least 2); events add their times.
+        t_out : s, default None
+            the output times instead of n_out: increasing, ending at t_end.
+        params : {name: value}, default None
+            tunable parameter values for this run (in the parameter's unit).
+        inputs : {name: value}, default None
+            input values: a number, a callable f(t) (sampled: jumps are smeared), (times, values) pairs or
+            an N×2 array (a time given twice is a jump), or a `Table`/`Signal` (exact, its knots time events).
+        start : {name: value}, default None
+            fixed start values (any dotted name, in its unit).
+        guess : {name: value}, default None
+            start guesses: they only seed the Newton iteration, they fix nothing.
+        max_steps : steps, default 20000
+            the integrator's steps per call before it gives up.
+        progress : default None
+            True/False shows/hides a progress bar; None shows one when a long grid (>= 1000 points) takes
+            more than a second.
+        steady_state : default False
+            start from der(x) = 0 (every state; fixed start values then over-specify).
+        continue_from : Result, default None
+            go on from that result's final time and states (its other final values are guesses).
+
+        A solver failure returns the partial result with `result.failure` set (and a warning); it does
+        not raise.
+        """
         from ..simulate.integrator import simulate
         return simulate(self, t_end, **kwargs)
 
