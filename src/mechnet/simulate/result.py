@@ -15,7 +15,7 @@ from ..core.errors import MechnetError, UnknownNameError
 
 # Event lines, by Event.kind: colours late in matplotlib's cycle, so rarely a curve's
 EVENT_COLORS = {"time": "0.45", "state": "black", "reselection": "tab:olive", "change point": "tab:cyan",
-                "method": "tab:pink"}
+                "method": "tab:pink", "rest": "tab:brown"}
 
 
 def unknown_name(name: str, known, what: str = "variable") -> UnknownNameError:
@@ -36,9 +36,10 @@ class Result:
 
     `res.units[name]` is its unit ("rad", "N*m"; "1" when dimensionless). `res.events` lists what happened,
     in time order, as `Event(t, kind, cause)`: `t` in s (also a point of `res.t`), `kind` one of "time"
-    (a signal's jump or table knot), "state" (a `When` crossing), "reselection" (the states were
-    re-chosen), "change point" (a loop stepped over a singular position) or "method" (the integrator
-    fell back to BDF), and `cause` a readable text naming the signal, condition or joints. For
+    (a signal's jump or table knot), "state" (a `When` crossing), "rest" (accumulating events ended in
+    the `When`'s rest mode: a ball come to rest), "reselection" (the states were re-chosen), "change
+    point" (a loop stepped over a singular position) or "method" (the integrator fell back to BDF), and
+    `cause` a readable text naming the signal, condition or joints. For
     analysis: `to_csv`, `to_pandas`, `plot`.
 
     `res.values` holds every name (a column each). It is computed when first needed: a name in
