@@ -8,6 +8,15 @@
     mechnet accuracy FILE [--t-end T] [--at T1] [--methods M ...] [--tolerances R ...] [--target E]
                           [--workers N | --scheduler ADDRESS] [-o DIR] [--debug]
 
+Outputs: a command writes only the files it names and never deletes a folder. A file output
+(`simulate --csv/--plot`, `demo --out`'s `<scene>.png`, `accuracy -o`'s `<model>_accuracy.png/.md/.csv`)
+replaces a file of that name, as `cp` does; other files in the folder are left alone. `export` writes a
+whole folder (or an .fmu archive), so an existing OUT is refused unless `--overwrite`, and even then
+only a previous mechnet export is replaced (a folder with only its model.json and the files mechnet
+wrote beside it, an empty folder, or a mechnet FMU), never `.`, a parent of the working directory or a
+folder holding other files. An export is written beside OUT and renamed into place when complete, so
+an interrupted one leaves OUT as it was.
+
 Errors a user can cause (MechnetError) print one `error: ...` line and exit
 with status 2, without a traceback: the message already names the culprit
 (for a scene file's own code, `<file>:<line>: ...`). `--debug` adds the traceback.
@@ -84,7 +93,8 @@ def _parser() -> argparse.ArgumentParser:
     exp.add_argument("--fmi", type=int, choices=(2, 3), default=2, help="FMI version of an FMU (default: 2)")
     exp.add_argument("--all-parameters", action="store_true",
                      help="expose every scalar parameter (not only the scene's tunable ones) as a tunable parameter")
-    exp.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
+    exp.add_argument("--overwrite", action="store_true",
+                     help="replace OUT if it is a previous mechnet export (never a folder holding other files)")
     exp.add_argument("-o", "--out", type=Path, required=True, metavar="OUT",
                      help="the .fmu file (kind fmu) or the folder (kinds c and casadi) to write")
     exp.set_defaults(run=_export)
@@ -112,6 +122,9 @@ def _accuracy(args: argparse.Namespace) -> int:
     from mechnet.accuracy import TOLERANCES, study
     from mechnet.scene import load_scene
 
+    out = args.out or Path("mechnet-accuracy")
+    if out.exists() and not out.is_dir():    # said now, not after the study
+        raise SceneError(f"-o {out} is a file; give a folder for the plot, table and CSV")
     scene = load_scene(args.file)
     cm = scene.model().compile()
     t_end = args.t_end if args.t_end is not None else min(scene.t_end, 10.0)
@@ -132,8 +145,10 @@ def _accuracy(args: argparse.Namespace) -> int:
     finally:
         if client is not None:
             client.close()
-    out = args.out or Path("mechnet-accuracy")
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise MechnetError(f"-o {out}: cannot make the folder ({exc.strerror or exc})") from None
     stem = out / f"{cm.name}_accuracy"
     import matplotlib.pyplot as plt
     plt.close(result.plot(stem.with_suffix(".png")))
@@ -149,14 +164,17 @@ def _export(args: argparse.Namespace) -> int:
     from contextlib import nullcontext
 
     import mechnet as mn
+    from mechnet.export.files import CLI_NAMES, export, replaceable
     from mechnet.scene import load_scene
 
+    replaceable(args.out, args.kind, args.overwrite, CLI_NAMES)    # refused before the compile, not after
     scene = load_scene(args.file)
     with mn.every_parameter_tunable() if args.all_parameters else nullcontext():
         model = scene.model()
     t0 = time.perf_counter()
     cm = model.compile()
-    path = cm.export(args.out, kind=args.kind, fmi=args.fmi, overwrite=args.overwrite)
+    # cm.export's own checks, its messages naming -o and --overwrite rather than export(path=...)
+    path = export(cm, args.out, args.kind, fmi=args.fmi, overwrite=args.overwrite, _option="cli")
     meta = cm.functions()["metadata"]
     what = f"FMI {args.fmi}.0 Model Exchange FMU" if args.kind == "fmu" else f"kind {args.kind!r} export"
     print(f"wrote {path}: {what} of {cm.name!r} in {time.perf_counter() - t0:.2f} s")

@@ -12,6 +12,7 @@ import re
 import shutil
 import subprocess
 import tempfile
+import zipfile
 from pathlib import Path
 
 import casadi as ca
@@ -25,9 +26,17 @@ SERIALISED = ("ode", "alg", "observed", "invariants", "zero", "init", "solve_alg
               "forward", "alg_jac")
 
 
-def export(cm, path, kind: str = "casadi", *, fmi: int = 2, overwrite: bool = False) -> Path:
+def export(cm, path, kind: str = "casadi", *, fmi: int = 2, overwrite: bool = False,
+           _option: str | None = None) -> Path:
     """Write the compiled model to `path` (a directory; a .fmu file for kind="fmu") and return it.
-    An existing path is replaced only with overwrite=True."""
+
+    An existing path is replaced only with overwrite=True, and only when it is a previous mechnet export:
+    a folder holding nothing but a model.json and the files mechnet wrote beside it (or an empty folder),
+    or an FMU with mechnet's extra/org.mechnet/model.json. The working directory, its parents and any
+    folder with other files in it are refused (ExportError naming the path and why), never emptied.
+    The export is written into a temporary sibling and renamed into place when complete, so an
+    interrupted export leaves the previous one (or nothing) at `path`. `_option` is how the caller
+    names the path and the flag in messages (the CLI: "-o", "--overwrite")."""
     from ..core.arguments import flag
     if kind not in KINDS:
         raise ExportError(f"export(kind={kind!r}): kind must be one of {', '.join(map(repr, KINDS))}")
@@ -35,18 +44,162 @@ def export(cm, path, kind: str = "casadi", *, fmi: int = 2, overwrite: bool = Fa
     if not isinstance(path, (str, os.PathLike)):
         raise ExportError(f"export(path={path!r}): give a file system path (str or pathlib.Path)")
     path = Path(path)
-    if path.exists():
-        if not overwrite:
-            raise ExportError(f"export: {path} exists; pass overwrite=True to replace it (or choose another path)")
-        shutil.rmtree(path) if path.is_dir() else path.unlink()
+    names = CLI_NAMES if _option == "cli" else API_NAMES
+    if kind == "fmu":
+        from .fmu import check_fmu_arguments
+        check_fmu_arguments(path, fmi)
+    replaceable(path, kind, overwrite, names)          # refused now, before the (long) build
     fns = functions(cm)
     if kind == "fmu":
         from .fmu import write_fmu
-        return write_fmu(fns, path, fmi)
-    path.mkdir(parents=True)
-    if kind == "casadi":
-        return write_casadi(fns, path)
-    return write_c(fns, path)
+        return write_fmu(fns, path, fmi, overwrite, names)
+    writer = write_casadi if kind == "casadi" else write_c
+    return _into_place(path, kind, lambda tmp: writer(fns, tmp), overwrite, names)
+
+
+#: how messages name the path and the overwrite flag: in Python, on the command line
+API_NAMES = ("export(path=...)", "overwrite=True")
+CLI_NAMES = ("-o", "--overwrite")
+#: files mechnet writes beside model.json that model.json's "files" does not list
+WRITTEN_BESIDE = ("model.json",)
+_TEMPORARY = ".mechnet-tmp-"
+_OLD = ".mechnet-old-"
+
+
+def replaceable(path: Path, kind: str, overwrite: bool, names=API_NAMES) -> bool:
+    """Whether `path` exists and may be replaced (True), does not exist (False), or an ExportError saying
+    why not: it exists without overwrite, or is not a previous mechnet export (see `export`)."""
+    where, flag_name = names
+    if not os.path.lexists(path):
+        return False
+    if not overwrite:
+        raise ExportError(f"export: {path} exists; pass {flag_name} to replace it (or choose another path)")
+    why = _not_an_export(path, kind)
+    if why:
+        raise ExportError(f"export: {flag_name} replaces only a previous mechnet export, and {path} {why}; "
+                          f"nothing was deleted: choose another path or remove it yourself")
+    return True
+
+
+def _not_an_export(path: Path, kind: str) -> str | None:
+    """Why `path` is not a previous mechnet export that an export of `kind` may replace, or None."""
+    if path.is_symlink():
+        return "is a symbolic link"
+    target, here = path.resolve(), Path.cwd().resolve()
+    if target == here:
+        return "is the working directory"
+    if target in here.parents:
+        return f"is a parent of the working directory {here}"
+    try:
+        if target == Path.home().resolve():
+            return "is the home directory"
+    except RuntimeError:                     # no home directory known
+        pass
+    if kind == "fmu":
+        if not path.is_file():
+            return "is not a file (an FMU is one .fmu file)"
+        try:
+            with zipfile.ZipFile(path) as archive:
+                if "extra/org.mechnet/model.json" not in archive.namelist():
+                    return "is an archive without mechnet's extra/org.mechnet/model.json"
+        except (zipfile.BadZipFile, OSError):
+            return "is not an FMU (not a zip archive)"
+        return None
+    if not path.is_dir():
+        return "is a file, not a folder an export wrote"
+    entries = list(path.iterdir())
+    if not entries:
+        return None
+    try:
+        meta = json.loads((path / "model.json").read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return "holds files and no model.json"
+    except (OSError, ValueError):
+        return "holds a model.json that is not mechnet's (not readable JSON)"
+    if not isinstance(meta, dict) or meta.get("kind") not in KINDS or "format" not in meta:
+        return "holds a model.json that is not mechnet's (no export kind and format)"
+    ours = set(WRITTEN_BESIDE) | {name for name in _listed(meta.get("files")) if name == Path(name).name}
+    others = sorted(e.name for e in entries if e.name not in ours or not e.is_file() or e.is_symlink())
+    if others:
+        shown = ", ".join(others[:5]) + (f" and {len(others) - 5} more" if len(others) > 5 else "")
+        return f"holds files an export did not write ({shown})"
+    return None
+
+
+def _listed(files) -> list:
+    """Every file name in model.json's "files" (strings in nested dicts and lists)."""
+    if isinstance(files, str):
+        return [files]
+    if isinstance(files, dict):
+        files = list(files.values())
+    if isinstance(files, list):
+        return [name for item in files for name in _listed(item)]
+    return []
+
+
+def _into_place(path: Path, kind: str, write, overwrite: bool, names) -> Path:
+    """Run write(tmp) on a new temporary sibling folder of `path`, then rename it to `path` (replacing a
+    previous export there, checked again now). The temporary folder is removed on any error or
+    interruption, so `path` holds either what it held before or the complete new export."""
+    parent = _parent(path, names)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}{_TEMPORARY}", dir=parent))
+    try:
+        try:
+            write(tmp)
+        except _SourcesOnly as exc:
+            os.chmod(tmp, 0o777 & ~_umask())
+            _swap(tmp, path, kind, overwrite, names)
+            raise ExportError(str(exc).replace(str(tmp), str(path))) from None
+        os.chmod(tmp, 0o777 & ~_umask())
+        _swap(tmp, path, kind, overwrite, names)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+    return path
+
+
+def _swap(new: Path, path: Path, kind: str, overwrite: bool, names) -> None:
+    """Rename the finished `new` to `path`; a previous export there (checked again: it may have changed
+    during the build) is moved aside first and removed after."""
+    if os.path.lexists(path):
+        replaceable(path, kind, overwrite, names)
+    if not os.path.lexists(path):
+        os.replace(new, path)
+        return
+    if new.is_file():
+        os.replace(new, path)                # one file: atomic
+        return
+    old = Path(tempfile.mkdtemp(prefix=f".{path.name}{_OLD}", dir=path.parent))
+    os.replace(path, old / path.name)
+    try:
+        os.replace(new, path)
+    except BaseException:
+        os.replace(old / path.name, path)    # put the previous export back
+        raise
+    finally:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def _parent(path: Path, names) -> Path:
+    """The folder `path` is written in, made when missing; ExportError when it cannot be."""
+    parent = path.absolute().parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ExportError(f"export: cannot make the folder {parent} for {path} "
+                          f"({exc.strerror or exc})") from None
+    return parent
+
+
+def _umask() -> int:
+    """The process's umask, read without setting it (os.umask would race with other threads)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0o022
 
 
 def c_identifiers(names) -> dict:
@@ -160,5 +313,12 @@ def write_c(fns: dict, path: Path) -> Path:
     meta["files"] = {"source": f"{prefix}.c", "header": f"{prefix}.h", "library": library,
                      "functions": {n[len(prefix) + 1:]: n for n in names}}
     (path / "model.json").write_text(json.dumps(meta, indent=1))
-    compile_shared([path / f"{prefix}.c"], path / library)
+    try:
+        compile_shared([path / f"{prefix}.c"], path / library)
+    except ExportError as exc:
+        raise _SourcesOnly(str(exc)) from None      # the sources are kept for the user to build
     return path
+
+
+class _SourcesOnly(ExportError):
+    """A kind="c" export whose library could not be built: its sources are moved into place all the same."""

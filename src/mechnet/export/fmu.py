@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
 import platform
 import shutil
 import tempfile
@@ -25,7 +26,7 @@ from importlib import resources
 from pathlib import Path
 
 from .contract import ExportError
-from .files import _record, compile_shared, generate_c
+from .files import _TEMPORARY, API_NAMES, _parent, _record, _swap, _umask, compile_shared, generate_c
 from .model_description import fmi_variables, model_description
 
 WRAPPER = "mechnet_fmu.c"
@@ -33,7 +34,8 @@ PLATFORM = {2: "linux64", 3: "x86_64-linux"}
 CALLED = ("init", "solve_alg", "ode", "observed", "zero", "forward", "alg_jac")   # what the wrapper calls
 
 
-def write_fmu(fns: dict, path: Path, fmi: int) -> Path:
+def check_fmu_arguments(path: Path, fmi) -> None:
+    """ExportError for an FMI version, platform or path an FMU cannot be written for."""
     if fmi not in (2, 3):
         raise ExportError(f"export(fmi={fmi!r}): FMI version must be 2 or 3")
     if (platform.system(), platform.machine()) != ("Linux", "x86_64"):
@@ -41,6 +43,14 @@ def write_fmu(fns: dict, path: Path, fmi: int) -> Path:
                           f"{platform.system()} on {platform.machine()}; kind='c' or 'casadi' work here")
     if path.suffix != ".fmu":
         raise ExportError(f"export(kind='fmu'): the path {path} must end in .fmu")
+
+
+def write_fmu(fns: dict, path: Path, fmi: int, overwrite: bool = False,
+              names=None) -> Path:
+    """Build the FMU in a temporary folder, zip it into a temporary sibling of `path` and rename that to
+    `path` when complete (replacing a previous mechnet FMU only with overwrite, `files.replaceable`)."""
+    check_fmu_arguments(path, fmi)
+    names = names or API_NAMES
     meta = _record(fns, "fmu", {})
     ident = meta["c_names"][meta["name"]]
     meta["fmi"] = fmi
@@ -64,10 +74,19 @@ def write_fmu(fns: dict, path: Path, fmi: int) -> Path:
         binaries.mkdir(parents=True)
         compile_shared([sources / WRAPPER, sources / f"{ident}.c"], binaries / f"{ident}.so", [sources],
                        defines={"FMI_VERSION": str(fmi)})
-        with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
-            for file in sorted(root.rglob("*")):
-                if file.is_file():
-                    archive.write(file, file.relative_to(root).as_posix())
+        handle, archive_path = tempfile.mkstemp(prefix=f".{path.name}{_TEMPORARY}", dir=_parent(path, names))
+        os.close(handle)
+        archive_path = Path(archive_path)
+        try:
+            with zipfile.ZipFile(archive_path, "w", zipfile.ZIP_DEFLATED) as archive:
+                for file in sorted(root.rglob("*")):
+                    if file.is_file():
+                        archive.write(file, file.relative_to(root).as_posix())
+            os.chmod(archive_path, 0o666 & ~_umask())
+            _swap(archive_path, path, "fmu", overwrite, names)
+        finally:
+            if archive_path.exists():
+                archive_path.unlink()
     return path
 
 
