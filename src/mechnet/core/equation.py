@@ -4,14 +4,24 @@ Every variable symbol a component creates is registered here with its owner, so
 that `der(x)` can hand back one derivative symbol per variable (created on first
 use) and flatten can tell a declared variable from a stray CasADi symbol.
 `der` of an expression is the total time derivative by the chain rule.
+
+The registry holds each symbol (so its element hash, the node's address, cannot be
+reused by another symbol while the entry exists), and drops a variable together with
+its derivative symbols once nothing else in the process refers to any of them: then
+no expression, component or Function can reach them, so no `der()` or flatten can
+ever look them up again. Whether anything else refers to a node is read from CasADi's
+own reference count (`_node_count`); pruning runs when the registry has doubled since
+the last one, so a process that builds thousands of models stays flat.
 """
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass
-from typing import Union
+from typing import Optional, Union
 
 import casadi as ca
 
+from ..caches import BUILD_LOCK
 from .errors import StructureError
 
 Expr = Union[ca.SX, float, int]
@@ -19,15 +29,79 @@ Expr = Union[ca.SX, float, int]
 time = ca.SX.sym("time")
 """Simulation time inside equations (Modelica's `time`; never `t`)."""
 
-# element hash -> (symbol, derivative symbol or None); holding the symbol keeps the hash unique.
+# element hash -> [symbol, derivative symbol or None]; holding the symbol keeps the hash unique. A
+# derivative symbol has an entry of its own, whose symbol is the same Python object as its parent's
+# entry[1]: the registry holds exactly one reference to each node. These Python objects are never handed
+# out (only copies, which count), so a node whose count is 1 is referred to by nothing else.
 _REGISTRY: dict[int, list] = {}
 # element hash of a derivative symbol -> element hash of the symbol it is the derivative of
 _DERIVATIVE_OF: dict[int, int] = {}
 
 
+def _find_count_offset() -> Optional[int]:
+    """Where CasADi keeps an SX node's reference count (`SXNode::count`, an unsigned int after the
+    vtable pointer; at byte 12 in casadi 3.8), found by watching it follow copies made and dropped.
+    None when no candidate behaves so (another CasADi layout): the registry then keeps everything."""
+    probe = ca.SX.sym("registry_probe")
+    address = probe.element_hash()
+    for offset in (12, 8, 16):                  # within any symbol node (vtable, two ints, its name)
+        def count():
+            return ctypes.c_uint.from_address(address + offset).value
+        seen = [count()]
+        copies = [ca.SX(probe), probe * 2.0]
+        seen.append(count())
+        copies.append(ca.vertcat(probe, probe))
+        seen.append(count())
+        del copies
+        seen.append(count())
+        if seen == [1, 3, 5, 1]:
+            return offset
+    return None  # pragma: no cover - another CasADi layout
+
+
+_COUNT_OFFSET = _find_count_offset()
+_PRUNE_FLOOR = 256       # never prune a registry smaller than this
+_prune_at = _PRUNE_FLOOR  # prune when the registry reaches this size (twice what the last prune kept)
+
+
+def _node_count(symbol: ca.SX) -> int:
+    """CasADi's reference count of a scalar symbol's node: the references every SX matrix, expression
+    and Function in the process hold to it (the registry's own entry included)."""
+    return ctypes.c_uint.from_address(symbol.element_hash() + _COUNT_OFFSET).value
+
+
+def prune_registry() -> int:
+    """Drop every variable whose symbol and derivative symbols nothing but the registry refers to (its
+    component, model and compiled model gone); returns how many entries are left. Runs by itself as
+    the registry grows; call it to see how many symbols are still in use."""
+    global _prune_at
+    if _COUNT_OFFSET is None:
+        return len(_REGISTRY)
+    with BUILD_LOCK:
+        groups: dict[int, list[int]] = {}
+        for key in _REGISTRY:
+            root, seen = key, {key}
+            while root in _DERIVATIVE_OF and _DERIVATIVE_OF[root] in _REGISTRY and _DERIVATIVE_OF[root] not in seen:
+                root = _DERIVATIVE_OF[root]
+                seen.add(root)
+            groups.setdefault(root, []).append(key)
+        for members in groups.values():
+            if all(_node_count(_REGISTRY[key][0]) == 1 for key in members):
+                for key in members:
+                    del _REGISTRY[key]
+                    _DERIVATIVE_OF.pop(key, None)
+        # a derivative link whose derivative entry is gone (its parent re-registered and then dropped)
+        for key in [k for k in _DERIVATIVE_OF if k not in _REGISTRY]:
+            del _DERIVATIVE_OF[key]
+        _prune_at = max(_PRUNE_FLOOR, 2 * len(_REGISTRY))
+        return len(_REGISTRY)
+
+
 def register(symbol: ca.SX) -> None:
     """Record a scalar variable symbol so `der` and flatten know it."""
-    _REGISTRY[symbol.element_hash()] = [symbol, None]
+    if len(_REGISTRY) >= _prune_at:
+        prune_registry()
+    _REGISTRY[symbol.element_hash()] = [ca.SX(symbol), None]   # a copy of its own (see _REGISTRY)
 
 
 def is_registered(symbol: ca.SX) -> bool:
@@ -37,7 +111,8 @@ def is_registered(symbol: ca.SX) -> bool:
 def derivative_parent(symbol: ca.SX):
     """The symbol whose derivative `symbol` is, or None."""
     parent = _DERIVATIVE_OF.get(symbol.element_hash())
-    return None if parent is None else _REGISTRY[parent][0]
+    entry = None if parent is None else _REGISTRY.get(parent)
+    return None if entry is None else ca.SX(entry[0])
 
 
 def _derivative_symbol(symbol: ca.SX) -> ca.SX:
@@ -48,9 +123,10 @@ def _derivative_symbol(symbol: ca.SX) -> ca.SX:
     if entry[1] is None:
         d = ca.SX.sym(f"der({symbol.name()})")
         register(d)
+        d = _REGISTRY[d.element_hash()][0]          # the registry's own object: parent and child share it
         _DERIVATIVE_OF[d.element_hash()] = key
         entry[1] = d
-    return entry[1]
+    return ca.SX(entry[1])                          # a copy: what the caller holds must count
 
 
 def der(expr: Expr) -> ca.SX:
