@@ -148,3 +148,49 @@ def test_cli_accuracy_out_a_file_is_refused_before_the_study(tmp_path, capsys):
     taken.write_text("mine")
     assert main(["accuracy", str(OSCILLATOR), "-o", str(taken)]) == 2
     assert "is a file" in capsys.readouterr().err and taken.read_text() == "mine"
+
+
+@pytest.mark.skipif(compiler() is None, reason="no C compiler")
+def test_a_user_file_named_like_a_c_symbol_is_not_the_exports(tmp_path, cm):
+    """A kind="c" export lists its C symbol names under files.functions; a user's file of such a name
+    beside the export is not one of its files, so overwrite refuses (it was deleted)."""
+    target = cm.export(tmp_path / "c", kind="c")
+    symbol = next(iter(json.loads((target / "model.json").read_text())["files"]["functions"].values()))
+    (target / symbol).write_text("USER DATA")
+    with pytest.raises(ExportError, match="holds files an export did not write"):
+        cm.export(target, kind="c", overwrite=True)
+    assert (target / symbol).read_text() == "USER DATA"
+
+
+@pytest.mark.skipif(compiler() is None, reason="no C compiler")
+def test_a_failed_build_keeps_the_previous_c_export(tmp_path, cm, monkeypatch):
+    """The compiler failing on the re-export leaves the previous export, library included."""
+    target = cm.export(tmp_path / "c", kind="c")
+    before = {p.name: p.read_bytes() for p in target.iterdir()}
+    monkeypatch.setenv("CC", "false")
+    with pytest.raises(ExportError, match="keeps the previous export"):
+        cm.export(target, kind="c", overwrite=True)
+    assert {p.name: p.read_bytes() for p in target.iterdir()} == before
+
+
+def test_a_swap_that_cannot_finish_keeps_the_previous_export(tmp_path, cm, monkeypatch):
+    """The new export's rename failing after the previous one was moved aside, with the path made again
+    meanwhile (a parallel export): the previous export is kept, named in the error, not removed."""
+    target = cm.export(tmp_path / "out")
+    before = {p.name: p.read_bytes() for p in target.iterdir()}
+    real, calls = files.os.replace, []
+
+    def replace(src, dst):
+        calls.append(dst)
+        if len(calls) == 2:                       # the new export's rename: something made the path again
+            Path(dst).mkdir()
+            (Path(dst) / "other").write_text("x")
+            raise OSError(39, "Directory not empty")
+        return real(src, dst)
+
+    monkeypatch.setattr(files.os, "replace", replace)
+    with pytest.raises(ExportError, match="it is kept in") as error:
+        cm.export(target, overwrite=True)
+    monkeypatch.undo()
+    kept = Path(str(error.value).rsplit("it is kept in ", 1)[1])
+    assert {p.name: p.read_bytes() for p in kept.iterdir()} == before

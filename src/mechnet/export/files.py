@@ -127,11 +127,13 @@ def _not_an_export(path: Path, kind: str) -> str | None:
 
 
 def _listed(files) -> list:
-    """Every file name in model.json's "files" (strings in nested dicts and lists)."""
+    """Every file name in model.json's "files" (strings in nested dicts and lists); a kind="c" export's
+    "functions" holds C symbol names, not files, and is left out (a user's file named like a symbol
+    would otherwise count as the export's and be replaced)."""
     if isinstance(files, str):
         return [files]
     if isinstance(files, dict):
-        files = list(files.values())
+        files = [v for k, v in files.items() if k != "functions"]
     if isinstance(files, list):
         return [name for item in files for name in _listed(item)]
     return []
@@ -147,6 +149,8 @@ def _into_place(path: Path, kind: str, write, overwrite: bool, names) -> Path:
         try:
             write(tmp)
         except _SourcesOnly as exc:
+            if os.path.lexists(path):        # a failed build never replaces a complete previous export
+                raise ExportError(f"{exc}; {path} keeps the previous export") from None
             os.chmod(tmp, 0o777 & ~_umask())
             _swap(tmp, path, kind, overwrite, names)
             raise ExportError(str(exc).replace(str(tmp), str(path))) from None
@@ -170,14 +174,26 @@ def _swap(new: Path, path: Path, kind: str, overwrite: bool, names) -> None:
         os.replace(new, path)                # one file: atomic
         return
     old = Path(tempfile.mkdtemp(prefix=f".{path.name}{_OLD}", dir=path.parent))
-    os.replace(path, old / path.name)
+    placed = False
     try:
+        os.replace(path, old / path.name)
         os.replace(new, path)
+        placed = True
     except BaseException:
-        os.replace(old / path.name, path)    # put the previous export back
+        if os.path.lexists(old / path.name):
+            kept = (f"export: {path} could not be replaced, and its previous export could not be put back: "
+                    f"it is kept in {old / path.name}")
+            if os.path.lexists(path):            # something made `path` again meanwhile
+                raise ExportError(kept) from None
+            try:
+                os.replace(old / path.name, path)    # put the previous export back
+            except OSError:
+                raise ExportError(kept) from None
         raise
     finally:
-        shutil.rmtree(old, ignore_errors=True)
+        # the previous export is removed only once the new one is in place, or once it is back
+        if placed or not os.path.lexists(old / path.name):
+            shutil.rmtree(old, ignore_errors=True)
 
 
 def _parent(path: Path, names) -> Path:
