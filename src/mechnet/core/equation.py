@@ -98,10 +98,12 @@ def prune_registry() -> int:
 
 
 def register(symbol: ca.SX) -> None:
-    """Record a scalar variable symbol so `der` and flatten know it."""
-    if len(_REGISTRY) >= _prune_at:
-        prune_registry()
-    _REGISTRY[symbol.element_hash()] = [ca.SX(symbol), None]   # a copy of its own (see _REGISTRY)
+    """Record a scalar variable symbol so `der` and flatten know it. Under the build lock: a prune in
+    another thread iterates the registry."""
+    with BUILD_LOCK:
+        if len(_REGISTRY) >= _prune_at:
+            prune_registry()
+        _REGISTRY[symbol.element_hash()] = [ca.SX(symbol), None]   # a copy of its own (see _REGISTRY)
 
 
 def is_registered(symbol: ca.SX) -> bool:
@@ -117,16 +119,17 @@ def derivative_parent(symbol: ca.SX):
 
 def _derivative_symbol(symbol: ca.SX) -> ca.SX:
     key = symbol.element_hash()
-    entry = _REGISTRY.get(key)
-    if entry is None:
-        return None
-    if entry[1] is None:
-        d = ca.SX.sym(f"der({symbol.name()})")
-        register(d)
-        d = _REGISTRY[d.element_hash()][0]          # the registry's own object: parent and child share it
-        _DERIVATIVE_OF[d.element_hash()] = key
-        entry[1] = d
-    return ca.SX(entry[1])                          # a copy: what the caller holds must count
+    with BUILD_LOCK:                                # one derivative symbol per variable, whatever the thread
+        entry = _REGISTRY.get(key)
+        if entry is None:
+            return None
+        if entry[1] is None:
+            d = ca.SX.sym(f"der({symbol.name()})")
+            register(d)
+            d = _REGISTRY[d.element_hash()][0]      # the registry's own object: parent and child share it
+            _DERIVATIVE_OF[d.element_hash()] = key
+            entry[1] = d
+        return ca.SX(entry[1])                      # a copy: what the caller holds must count
 
 
 def der(expr: Expr) -> ca.SX:
