@@ -276,10 +276,9 @@ def _callbacks():
 _FMPY_LEFTOVERS = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 
 
-@_FMPY_LEFTOVERS
-def test_an_fmu_refuses_mu_s_below_mu_k_at_the_end_of_initialisation(friction, tmp_path):
-    """The FMU's C wrapper reads the same requirements (model_data.h): parameter values set before
-    initialisation are judged together when it ends, and a broken one is an error naming it."""
+def _refused_at_initialisation(friction, tmp_path, start_values):
+    """Build the friction FMU, run it in FMPy with `start_values` (the run must fail): (what it logged,
+    the FMU's path)."""
     fmpy = pytest.importorskip("fmpy", reason="fmpy (extra 'test') runs FMUs")
     from mechnet.export.files import compiler
     if compiler() is None:
@@ -287,9 +286,17 @@ def test_an_fmu_refuses_mu_s_below_mu_k_at_the_end_of_initialisation(friction, t
     path = friction.export(tmp_path / "fr.fmu", kind="fmu")
     messages = []
     with pytest.raises(Exception):
-        fmpy.simulate_fmu(str(path), stop_time=0.5, fmi_type="ModelExchange", start_values={"fr.mu_s": 0.1},
+        fmpy.simulate_fmu(str(path), stop_time=0.5, fmi_type="ModelExchange", start_values=start_values,
                           logger=lambda *a: messages.append(a[-1]))
-    text = " ".join(m.decode() if isinstance(m, bytes) else str(m) for m in messages)
+    return " ".join(m.decode() if isinstance(m, bytes) else str(m) for m in messages), path
+
+
+@_FMPY_LEFTOVERS
+def test_an_fmu_refuses_mu_s_below_mu_k_at_the_end_of_initialisation(friction, tmp_path):
+    """The FMU's C wrapper reads the same requirements (model_data.h): parameter values set before
+    initialisation are judged together when it ends, and a broken one is an error naming it."""
+    text, path = _refused_at_initialisation(friction, tmp_path, {"fr.mu_s": 0.1})
+    import fmpy
     assert "fr (Friction): mu_s must be >= mu_k" in text and "0.1 and 0.2" in text
     res = fmpy.simulate_fmu(str(path), stop_time=0.5, fmi_type="ModelExchange", start_values={"fr.mu_s": 0.4})
     assert res["time"][-1] == pytest.approx(0.5)          # guard: a value that keeps it runs
@@ -358,14 +365,5 @@ def test_a_loaded_export_calls_nothing_but_parameter_checks(stops, tmp_path):
 def test_an_fmu_refuses_a_parameter_outside_its_own_check(friction, tmp_path):
     """A parameter's own check (mass m > 0) is kept by the FMU as a range: a value set before
     initialisation outside it is an error naming the parameter when initialisation ends."""
-    fmpy = pytest.importorskip("fmpy", reason="fmpy (extra 'test') runs FMUs")
-    from mechnet.export.files import compiler
-    if compiler() is None:
-        pytest.skip("no C compiler to build the FMU")
-    path = friction.export(tmp_path / "fr.fmu", kind="fmu")
-    messages = []
-    with pytest.raises(Exception):
-        fmpy.simulate_fmu(str(path), stop_time=0.5, fmi_type="ModelExchange", start_values={"mass.m": -1.0},
-                          logger=lambda *a: messages.append(a[-1]))
-    text = " ".join(m.decode() if isinstance(m, bytes) else str(m) for m in messages)
+    text, _ = _refused_at_initialisation(friction, tmp_path, {"mass.m": -1.0})
     assert "parameter mass.m = -1 must be > 0" in text
