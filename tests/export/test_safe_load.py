@@ -48,6 +48,7 @@ def test_a_jit_compiler_command_is_refused_unrun(folder, tmp_path, monkeypatch):
                           {"jit": True, "compiler": "shell", "jit_options": {"compiler": f"touch {marker}; gcc"}})
     marker.unlink()                            # made while building the payload: it does run code
     crafted.save(str(folder / "ode.casadi"))
+    _rehash(folder)
     with pytest.raises(ExportError, match=r"ode\.casadi.*jit"):
         load(folder)
     assert not marker.exists()
@@ -70,6 +71,7 @@ def test_an_external_library_is_refused_unopened(folder, tmp_path, monkeypatch):
     marker.unlink()
     args = ext.mx_in()
     ca.Function("observed", args, ext.call(args)).save(str(folder / "invariants.casadi"))
+    _rehash(folder)
     with pytest.raises(ExportError, match=r"invariants\.casadi.*External"):
         load(folder)
     assert not marker.exists()
@@ -85,8 +87,16 @@ def test_jit_options_are_refused_even_without_a_compiler(folder, options, words)
             str(folder / "ode.casadi"))
     except RuntimeError:
         pytest.skip("CasADi will not build this function here")
+    _rehash(folder)
     with pytest.raises(ExportError, match=rf"ode\.casadi.*{words}"):
         load(folder)
+
+
+def _rehash(folder):
+    """model.json's SHA-256 of every file as the folder holds it now: a crafted folder passes that check,
+    which only catches accidental mixing; the function checks must still refuse it."""
+    from mechnet.export.record import sha256
+    _tamper(folder, lambda r: r["sha256"].update({name: sha256(folder / name) for name in r["sha256"]}))
 
 
 def _tamper(folder, change):

@@ -256,8 +256,17 @@ def write_casadi(fns: dict, path: Path) -> Path:
             if f is not None:
                 f.save(str(path / f"rest_{k}.casadi"))
             files["rest"].append(None if f is None else f"rest_{k}.casadi")
-    (path / "model.json").write_text(json.dumps(_record(fns, "casadi", files), indent=1))
+    meta = _record(fns, "casadi", files)
+    meta["sha256"] = _hashes(path, _listed(files))
+    (path / "model.json").write_text(json.dumps(meta, indent=1))
     return path
+
+
+def _hashes(path: Path, names) -> dict:
+    """The SHA-256 of each file the export wrote (model.json's "sha256"): `load` refuses a file that does
+    not match, which catches a folder mixing two exports by accident (not one made to pass)."""
+    from .record import sha256
+    return {name: sha256(path / name) for name in names if (path / name).is_file()}
 
 
 def compiler() -> str | None:
@@ -328,11 +337,16 @@ def write_c(fns: dict, path: Path) -> Path:
     library = f"lib{prefix}.so"
     meta["files"] = {"source": f"{prefix}.c", "header": f"{prefix}.h", "library": library,
                      "functions": {n[len(prefix) + 1:]: n for n in names}}
-    (path / "model.json").write_text(json.dumps(meta, indent=1))
     try:
         compile_shared([path / f"{prefix}.c"], path / library)
     except ExportError as exc:
-        raise _SourcesOnly(str(exc)) from None      # the sources are kept for the user to build
+        failed = exc
+    else:
+        failed = None
+    meta["sha256"] = _hashes(path, _listed(meta["files"]))     # the library's only when it was built
+    (path / "model.json").write_text(json.dumps(meta, indent=1))
+    if failed is not None:
+        raise _SourcesOnly(str(failed)) from None      # the sources are kept for the user to build
     return path
 
 

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import sys
 import json
-import math
 import struct
 import warnings
 from pathlib import Path
@@ -14,7 +13,9 @@ import numpy as np
 from ..caches import BUILD_LOCK
 from ..compile.artifacts import Selection, SemiExplicitDAE
 from ..compile.compiled import CompiledModel
-from .contract import FORMAT_VERSION, ExportError
+from .contract import ExportError
+from .files import SERIALISED
+from .record import check_fit, check_hashes, check_record, read_format
 
 
 class ExportWarning(UserWarning):
@@ -22,7 +23,7 @@ class ExportWarning(UserWarning):
 
 
 def read_record(path) -> dict:
-    """model.json of an export, checked: present, readable, and of a format this mechnet reads."""
+    """model.json of an export, checked: present, readable, a mapping, and of a format this mechnet reads."""
     path = Path(path)
     record_file = path / "model.json"
     if not record_file.is_file():
@@ -31,10 +32,7 @@ def read_record(path) -> dict:
         record = json.loads(record_file.read_text())
     except (OSError, ValueError) as exc:
         raise ExportError(f"load: {record_file} cannot be read: {exc}") from None
-    version = record.get("format")
-    if not isinstance(version, int) or version > FORMAT_VERSION:
-        raise ExportError(f"load: {path} was written in export format {version!r} by a newer mechnet; this one "
-                          f"reads formats up to {FORMAT_VERSION}: upgrade mechnet to load it")
+    read_format(record, record_file)
     return record
 
 
@@ -189,83 +187,42 @@ def _member(path: Path, value, key: str) -> Path:
     return file
 
 
-def _function(path: Path, value, key: str) -> ca.Function:
-    file = _member(path, value, key)
+def _function(file: Path) -> ca.Function:
+    """The CasADi function of an export's file, inspected before CasADi reads it."""
     inspect_function_file(file)
     try:
         return ca.Function.load(str(file))
     except RuntimeError as exc:
-        raise ExportError(f"load: model.json {key}: {file} is not a CasADi function CasADi can read: "
+        raise ExportError(f"load: {file} is not a CasADi function CasADi can read: "
                           f"{str(exc).strip().splitlines()[-1][:300]}") from None
 
-_CONTRACT = ("ode", "alg", "observed", "invariants", "zero")
-_NUMBER_FIELDS = {"x": ("nominal",), "z": ("nominal",), "u": ("default",), "p": ("value",), "d": ("start",),
-                  "observed": ("nominal",)}
 
-
-def _check_record(path: Path, record: dict, fns: dict) -> None:
-    """model.json's entries `load` reads: of the right types, finite, and as many as the functions take
-    (ExportError naming the key). It catches an edited or mixed-up record, not a crafted folder."""
-    def fail(key, why):
-        raise ExportError(f"load: {path / 'model.json'} {key}: {why}")
-
-    def number(value, key):
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            fail(key, f"must be a finite number, not {value!r}")
-
-    def listed(key, kind=list):
-        value = record.get(key)
-        if not isinstance(value, kind):
-            fail(repr(key), f"must be a {'list' if kind is list else 'mapping'}, not {value!r}"
-                 if key in record else "is missing")
-        return value
-
-    if not isinstance(record.get("name"), str):
-        fail("'name'", f"must be a string, not {record.get('name')!r}")
-    for key, fields in _NUMBER_FIELDS.items():
-        for k, entry in enumerate(listed(key)):
-            where = f"{key}[{k}]"
-            if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
-                fail(where, f"must be a record with a \"name\" string, not {entry!r}")
-            for field in fields:
-                number(entry.get(field), f"{where}[{field!r}]")
-            if key == "observed" and not isinstance(entry.get("unit"), str):
-                fail(f"{where}['unit']", f"must be a string, not {entry.get('unit')!r}")
-    args = {"x": 1, "z": 2, "u": 3, "p": 4, "d": 5}
-    for key, k in args.items():
-        if fns["ode"].n_in() != 6 or fns["ode"].numel_in(k) != len(record[key]):
-            fail(repr(key), f"lists {len(record[key])} entries; ode.casadi takes "
-                            f"{fns['ode'].numel_in(k) if fns['ode'].n_in() == 6 else '?'}")
-    if fns["observed"].numel_out(0) != len(record["observed"]):
-        fail("'observed'", f"lists {len(record['observed'])} entries; observed.casadi gives "
-                           f"{fns['observed'].numel_out(0)}")
-    for k, entry in enumerate(listed("declared_starts")):
-        if not isinstance(entry, dict) or not isinstance(entry.get("name"), str):
-            fail(f"declared_starts[{k}]", f"must be a record with a \"name\" string, not {entry!r}")
-        number(entry.get("value"), f"declared_starts[{k}]['value']")
-    for name, value in listed("guesses", dict).items():
-        number(value, f"guesses[{name!r}]")
-    zero = listed("zero")
-    for k, entry in enumerate(zero):
-        if not isinstance(entry, dict) or not isinstance(entry.get("label"), str) \
-                or entry.get("direction") not in (-1, 0, 1):
-            fail(f"zero[{k}]", f"must be a record with a \"label\" and a direction -1, 0 or 1, not {entry!r}")
-    if fns["zero"].numel_out(0) != len(zero) or len(fns["transition"]) != len(zero):
-        fail("'zero'", f"lists {len(zero)} events; zero.casadi gives {fns['zero'].numel_out(0)} and "
-                       f"{len(fns['transition'])} transitions are listed")
-    for k, entry in enumerate(listed("time_events")):
-        if not isinstance(entry, list) or len(entry) != 2:
-            fail(f"time_events[{k}]", f"must be [time, cause], not {entry!r}")
-        number(entry[0], f"time_events[{k}][0]")
-    for key in ("invariants", "alg_labels", "folded_parameters"):
-        listed(key)
-    for key in ("linear_tears", "parameter_requirements", "quaternions"):
-        if key in record:
-            listed(key)
-    selection = listed("selection", dict)
-    if not isinstance(selection.get("holds"), bool) or not isinstance(selection.get("states"), list) \
-            or not isinstance(selection.get("reason"), str):
-        fail("'selection'", f"must hold \"holds\" (true/false), \"states\" and \"reason\", not {selection!r}")
+def _members(path: Path, files) -> dict:
+    """model.json's "files" of a kind="casadi" export: {key as messages name it: (name, file)}, each file
+    confined to the folder; every function the contract names must be there, and nothing else."""
+    if not isinstance(files, dict):
+        raise ExportError(f"load: model.json 'files' must map each function to its file in {path}, "
+                          f"not {files!r:.80}")
+    for key in ("transition", "rest"):
+        if not isinstance(files.get(key, []), list):
+            raise ExportError(f"load: model.json files[{key!r}] must be a list of file names, "
+                              f"not {files.get(key)!r:.80}")
+    transitions = files.get("transition", [])
+    rests = files.get("rest", [None] * len(transitions))
+    if len(rests) != len(transitions):
+        raise ExportError(f"load: model.json files['rest'] holds {len(rests)} entries for "
+                          f"{len(transitions)} transitions (files['transition'])")
+    missing = [name for name in SERIALISED if name not in files]
+    if missing:
+        raise ExportError(f"load: model.json files lacks {', '.join(map(repr, missing))}")
+    unknown = [name for name in files if name not in (*SERIALISED, "transition", "rest")]
+    if unknown:
+        raise ExportError(f"load: model.json files[{unknown[0]!r}] is no function of the contract an export "
+                          f"writes ({', '.join(SERIALISED)}, transition, rest)")
+    keyed = {f"files[{name!r}]": files[name] for name in SERIALISED}
+    keyed.update({f"files['transition'][{k}]": f for k, f in enumerate(transitions)})
+    keyed.update({f"files['rest'][{k}]": f for k, f in enumerate(rests) if f is not None})
+    return {key: (value, _member(path, value, key)) for key, value in keyed.items()}
 
 
 def load(path) -> "LoadedModel":
@@ -276,37 +233,28 @@ def load(path) -> "LoadedModel":
     Nothing in the folder runs: each function file is inspected before CasADi reads it and refused
     (ExportError naming the file) when it holds a class mechnet never writes (an `External` library) or
     JIT settings; model.json's files must lie in the folder and its entries are checked, with errors
-    naming the key. The checks catch a mixed-up folder, not a crafted one holding another model's
-    consistent functions (docs/export.md, "What is trusted")."""
+    naming the key (`record.py`: types, sizes against the functions', parameter values within their
+    checks), and each file must match the SHA-256 model.json recorded for it at export. The checks catch
+    an edited or mixed-up folder, not a crafted one holding another model's consistent functions and
+    record (docs/export.md, "What is trusted")."""
     path = Path(path)
     record = read_record(path)
-    if record.get("kind") != "casadi":
+    if "kind" not in record:
+        raise ExportError(f"load: {path / 'model.json'} 'kind' is missing (the export kind, 'casadi')")
+    if record["kind"] != "casadi":
         hint = (" (a kind='c' export: mechnet.export.load_library gives its functions)"
                 if record.get("kind") == "c" else "")
         raise ExportError(f"load: {path} is a kind={record.get('kind')!r} export; load reads kind='casadi'{hint}")
-    files = record.get("files")
-    if not isinstance(files, dict):
-        raise ExportError(f"load: model.json \"files\" must map each function to its file in {path}, "
-                          f"not {files!r}")
-    for key in ("transition", "rest"):
-        if not isinstance(files.get(key, []), list):
-            raise ExportError(f"load: model.json files[{key!r}] must be a list of file names, "
-                              f"not {files.get(key)!r}")
-    transitions = files.get("transition", [])
-    rests = files.get("rest", [None] * len(transitions))
-    if len(rests) != len(transitions):
-        raise ExportError(f"load: model.json files['rest'] holds {len(rests)} entries for "
-                          f"{len(transitions)} transitions")
-    missing = [name for name in _CONTRACT if name not in files]
-    if missing:
-        raise ExportError(f"load: model.json files lacks {', '.join(map(repr, missing))}")
+    check_record(record, path / "model.json")
+    members = _members(path, record.get("files"))
+    check_hashes(record, {name: file for name, file in members.values()}, path / "model.json")
     with BUILD_LOCK:
-        fns = {name: _function(path, file, f"files[{name!r}]") for name, file in files.items()
-               if name not in ("transition", "rest")}
-        fns["transition"] = tuple(_function(path, f, f"files['transition'][{k}]") for k, f in enumerate(transitions))
-        fns["rest"] = tuple(None if f is None else _function(path, f, f"files['rest'][{k}]")
-                            for k, f in enumerate(rests))
-    _check_record(path, record, fns)
+        loaded = {key: _function(file) for key, (_, file) in members.items()}
+    fns = {name: loaded[f"files[{name!r}]"] for name in SERIALISED}
+    n = len(record["files"].get("transition", []))
+    fns["transition"] = tuple(loaded[f"files['transition'][{k}]"] for k in range(n))
+    fns["rest"] = tuple(loaded.get(f"files['rest'][{k}]") for k in range(n))
+    check_fit(record, fns, path / "model.json")
     selection = record["selection"]
     if not selection["holds"]:
         warnings.warn(f"model {record['name']!r} loaded from {path} keeps the states {', '.join(selection['states'])} "
@@ -319,16 +267,29 @@ def load_library(path) -> dict:
     """The functions of a kind="c" export, from its shared library (CasADi `external`), by contract
     name: "ode", "alg", ..., "transition_0", ...
 
-    The library is native code: loading it runs it. Load only libraries you trust."""
+    The library is native code: loading it runs it (its initialisers run as it is opened), so load only
+    libraries you trust. The library must be a file inside the folder (no absolute path, `..` or link leading
+    out) and, when model.json records its SHA-256, match it (a library rebuilt from the sources does not:
+    delete its entry in model.json's "sha256" to load one you built yourself)."""
     path = Path(path)
     record = read_record(path)
     if record.get("kind") != "c":
         raise ExportError(f"load_library: {path} is a kind={record.get('kind')!r} export, not kind='c'")
-    library = path / record["files"]["library"]
-    if not library.is_file():
-        raise ExportError(f"load_library: {library} is missing; build {record['files']['source']} into it")
+    files = record.get("files")
+    if not isinstance(files, dict) or not isinstance(files.get("functions"), dict) or not all(
+            isinstance(k, str) and isinstance(v, str) and v.isidentifier() for k, v in files["functions"].items()):
+        raise ExportError(f"load_library: model.json 'files' must hold \"library\" and \"functions\" (contract "
+                          f"names to C symbols), not {files!r:.200}")
+    if isinstance(files.get("library"), str) and not (path / files["library"]).exists() \
+            and Path(files["library"]).name == files["library"]:
+        raise ExportError(f"load_library: {path / files['library']} is missing; build {files.get('source')} "
+                          f"into it")
+    library = _member(path, files.get("library"), "files['library']")
+    hashes = record.get("sha256")
+    if isinstance(hashes, dict) and files["library"] in hashes:
+        check_hashes(record, {files["library"]: library}, path / "model.json")
     with BUILD_LOCK:
-        return {name: ca.external(symbol, str(library)) for name, symbol in record["files"]["functions"].items()}
+        return {name: ca.external(symbol, str(library)) for name, symbol in files["functions"].items()}
 
 
 def _dae(record: dict, fns: dict) -> SemiExplicitDAE:
@@ -402,7 +363,7 @@ class LoadedModel(CompiledModel):
         super().__init__(record["name"], {"dae": dae}, {}, None)
         self.record = record
         dae.info["_export_functions"] = {**fns, "metadata": {k: v for k, v in record.items()
-                                                             if k not in ("kind", "files", "c_names")}}
+                                                             if k not in ("kind", "files", "c_names", "sha256")}}
 
     def summary(self) -> str:
         r = self.record
