@@ -15,9 +15,23 @@ tightest setting (Adams and BDF, or IDAS at two tolerances), whose difference es
 reference's own error: errors within 10× of it are marked unreliable, and a difference far beyond the
 tolerance (methods disagreeing: a chaotic scene, or one past a bifurcation) is reported as such.
 Runs go through `mn.sweep` (worker processes, or a Dask client).
+
+Timing: every row runs once for its result (which also builds its integrators), then `repeat` more times
+round-robin over the rows (not `repeat` in a row per row, which lets a burst of load on a shared machine
+favour one row); the best and the median are kept. Rows whose best-to-median ranges overlap are a tie,
+decided on counted work (right-hand-side evaluations) rather than on timing noise.
+
+What the solvers print (a diverging fixed step makes CasADi print "NaN detected" and its `Function step`
+input dumps, from C++ or through Python's streams) is captured while the study's own runs work and summed up
+in the row's note, never printed.
 """
 from __future__ import annotations
 
+import contextlib
+import io
+import os
+import sys
+import tempfile
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -28,8 +42,9 @@ from .core.arguments import name_list, whole_number
 from .core.declarations import finite_number
 from .core.errors import MechnetError
 from .numeric import NumpyCall
+from . import solver_output
 from .simulate import IntegrationWarning
-from .sweep import sweep
+from .sweep import run_case, sweep
 
 TOLERANCES = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
 STEPS = (10, 30, 100, 300, 1000, 3000)
@@ -39,7 +54,9 @@ METHODS = ("auto", "cvodes-adams", "cvodes-bdf", "idas", "rk", "collocation", "b
 ATOL_RATIO = 1e-2          # atol = rtol · ATOL_RATIO (scaled by each state's nominal value, as in simulate)
 UNRELIABLE = 10.0          # errors within this factor of the reference's own error are not trusted
 DISAGREE = 1e3             # reference runs differing by more than this × their tolerance: chaotic
-TIE = 0.2                  # runs within 20 % of the fastest time count as equally fast (timing noise)
+TIE = 0.2                  # one timing per row: runs within 20 % of the fastest count as equally fast
+DIVERGED = 1e6             # a fixed-step error beyond this × the largest reference value: diverged
+REPEAT = 5                 # timed repeats per row, round-robin over the rows
 REFERENCE_STEPS = 10 ** 7  # the reference runs' step limit (one output interval over the whole run)
 
 
@@ -59,6 +76,25 @@ class Trial:
     status: str = "ok"
     reason: str = ""
     reliable: bool = True
+    timer: object = field(default=None, repr=False, compare=False)   # () -> seconds of one more run, while timing
+    times: list = field(default_factory=list)   # the timed repeats (s); `time` is the best of them
+    output: str = ""               # a summary of what the solver printed during the run (captured)
+
+    @property
+    def median(self) -> float:
+        """The median timed repeat (the best when there is one timing)."""
+        return float(np.median(self.times)) if self.times else self.time
+
+    @property
+    def slowest_tied(self) -> float:
+        """The upper end of this row's timing range: its median over three or more repeats, else its best
+        plus TIE (one run says nothing of the noise)."""
+        return self.median if len(self.times) >= 3 else self.time * (1 + TIE)
+
+    @property
+    def work(self) -> int:
+        """Counted work: right-hand-side (or residual) evaluations; 0 when the method does not count them."""
+        return self.evaluations
 
     @property
     def call(self) -> str:
@@ -83,9 +119,11 @@ class AccuracyStudy:
     warnings: list = field(default_factory=list)
 
     def rows(self) -> list[dict]:
-        return [{"method": t.method, "setting": t.setting, "error": t.error, "time_s": t.time, "steps": t.steps,
+        return [{"method": t.method, "setting": t.setting, "error": t.error, "time_s": t.time,
+                 "time_median_s": t.median, "repeats": len(t.times), "steps": t.steps,
                  "evaluations": t.evaluations, "events": t.events, "reselections": t.reselections,
-                 "drift": t.drift, "reliable": t.reliable, "status": t.status, "reason": t.reason}
+                 "drift": t.drift, "reliable": t.reliable, "status": t.status, "reason": t.reason,
+                 "solver_output": t.output}
                 for t in self.trials]
 
     def to_pandas(self):
@@ -108,15 +146,21 @@ class AccuracyStudy:
     def to_markdown(self, target: float = 1e-6) -> str:
         lines = [f"Work-precision study of {self.name!r}: error at t = {self.at:g} s in {', '.join(self.names[:6])}"
                  f"{' ...' if len(self.names) > 6 else ''} against {self.reference}", "",
-                 "| method | rtol / steps | error | time (ms) | steps | f evals | events | reselections | drift "
-                 "| note |", "|---|---|---|---|---|---|---|---|---|---|"]
+                 "| method | rtol / steps | error | time (ms): best / median | steps | f evals | events | reselections "
+                 "| drift | note |", "|---|---|---|---|---|---|---|---|---|---|"]
         for t in self.trials:
             note = t.reason if t.status != "ok" else ("" if t.reliable else "within 10x of the reference's error")
+            note = "; ".join(n for n in (note, t.output) if n)
             if t.status == "skipped":
                 lines.append(f"| {t.method} | - | - | - | - | - | - | - | - | skipped: {note} |")
                 continue
-            lines.append(f"| {t.method} | {t.setting:g} | {t.error:.2e} | {1e3 * t.time:.3g} | {t.steps} | "
+            timing = f"{1e3 * t.time:.3g}" + (f" / {1e3 * t.median:.3g}" if len(t.times) > 1 else "")
+            lines.append(f"| {t.method} | {t.setting:g} | {t.error:.2e} | {timing} | {t.steps} | "
                          f"{t.evaluations} | {t.events} | {t.reselections} | {t.drift:.1e} | {note} |")
+        repeats = max((len(t.times) for t in self.trials), default=0)
+        if repeats > 1:
+            lines += ["", f"Times: the best and the median of {repeats} repeats taken round-robin over the rows, after "
+                          f"a first run that builds the integrators."]
         lines += [""] + [f"- {w}" for w in self.warnings]
         lines.append(f"- for error <= {target:g}: " + self.recommendation(target).replace("\n", "; "))
         return "\n".join(lines)
@@ -125,28 +169,38 @@ class AccuracyStudy:
         """The cheapest trial whose error is at most `error` (among cm.simulate's methods only, when
         asked), or None. An unreliable trial (within 10× of the reference's own error) counts when even
         its measured error plus the reference's stays within `error`: its true error cannot be larger
-        (a chaotic chain at 10 s: no reliable run fell between 10× the reference's error and 1e-3)."""
+        (a chaotic chain at 10 s: no reliable run fell between 10× the reference's error and 1e-3).
+
+        Cheapest: the best time, unless other rows' timing ranges (best to median) overlap the fastest's —
+        a tie timing cannot decide — then the least counted work among them (right-hand-side evaluations,
+        when every tied row counts them), then the best time. Choosing the most accurate of a 20 % band
+        once picked a setting 1.7× slower than another row of the same table."""
+        error = finite_number(error, "recommend(error)", MechnetError)
+        if error <= 0:
+            raise MechnetError(f"recommend(error={error:g}): give the error to reach, a number > 0")
         fits = [t for t in self.trials if t.status == "ok" and t.error <= error
                 and (t.reliable or t.error + self.reference_error <= error)
                 and (not simulate_only or t.method in SIMULATE)]
         if not fits:
             return None
-        # times within TIE of the fastest are a tie on millisecond runs: the most accurate of those wins
-        fastest = min(t.time for t in fits)
-        return min((t for t in fits if t.time <= (1 + TIE) * fastest), key=lambda t: (t.error, t.time))
+        fastest = min(fits, key=lambda t: t.time)
+        tied = [t for t in fits if t.time <= fastest.slowest_tied and fastest.time <= t.slowest_tied]
+        counted = all(t.work > 0 for t in tied)
+        return min(tied, key=lambda t: (t.work if counted else 0, t.time))
 
     def recommendation(self, error: float) -> str:
         """What to paste: the cheapest cm.simulate setting reaching `error`, and the cheapest run of any
         kind when that is another (a fixed-step or SciPy run the user would write themselves)."""
         best, overall = self.recommend(error, simulate_only=True), self.recommend(error)
+        if overall is not None and overall.method in SIMULATE:    # (a tie is decided within its own group)
+            best = overall
         if overall is None:
             return f"no method reached an error of {error:g} at t = {self.at:g} s"
         text = "" if best is None else (f"{best.call}  # error {best.error:.2g} at t = {self.at:g} s in "
-                                        f"{1e3 * best.time:.3g} ms, the cheapest cm.simulate setting for error "
-                                        f"<= {error:g}")
+                                        f"{_cost(best)}, the cheapest cm.simulate setting for error <= {error:g}")
         if overall is not best:
             text += ("\n" if text else "") + (f"# cheapest of all: {overall.call} (error {overall.error:.2g}, "
-                                               f"{1e3 * overall.time:.3g} ms)")
+                                               f"{_cost(overall)})")
         return text
 
     def plot(self, path=None):
@@ -179,6 +233,12 @@ class AccuracyStudy:
         return fig
 
 
+def _cost(t) -> str:
+    """A row's time as the recommendation quotes it: best (and median) ms, and its counted work."""
+    timing = f"{1e3 * t.time:.3g} ms" + (f" (median {1e3 * t.median:.3g} ms)" if len(t.times) > 1 else "")
+    return timing + (f", {t.work} f evals" if t.work else "")
+
+
 def _front(trials):
     """The trials no other trial beats in both time and error, by time."""
     out = []
@@ -189,10 +249,11 @@ def _front(trials):
 
 
 def study(cm, t_end: float, *, at: float | None = None, names=None, methods=None, tolerances=TOLERANCES,
-          steps=STEPS, reference=None, repeat: int = 2, workers: int | None = 0, client=None) -> AccuracyStudy:
+          steps=STEPS, reference=None, repeat: int = REPEAT, workers: int | None = 0, client=None) -> AccuracyStudy:
     """The work-precision study of `cm` over [0, t_end], errors at `at` (default t_end) in `names`
     (default: the reference's names, else the states). `reference(t)` -> {name: value} when the scene
-    has a closed form (a scene file's `reference`). `repeat`: runs per setting, the fastest kept."""
+    has a closed form (a scene file's `reference`). `repeat`: timed runs per setting after the first,
+    round-robin over the settings, the best kept and the median shown (1: the first run's time alone)."""
     if not hasattr(cm, "dae") or not hasattr(cm, "simulate"):
         raise MechnetError(f"accuracy: study takes a compiled model (Model.compile()), got {type(cm).__name__}")
     t_end = finite_number(t_end, "accuracy: t_end (s)", MechnetError)
@@ -228,24 +289,109 @@ def study(cm, t_end: float, *, at: float | None = None, names=None, methods=None
         trials += [Trial(m, np.nan, status="skipped", reason="needs an explicit ODE (the model keeps algebraic "
                                                             "variables)") for m in skipped]
     cases = [{"settings": {"method": m, "rtol": tol, "atol": tol * ATOL_RATIO}} for m in native for tol in tolerances]
+    parallel = client is not None or workers is None or workers > 1
     if cases:
-        runs = sweep(cm, t_end=at, cases=cases, workers=workers, client=client, repeat=repeat, t_out=[0.0, at])
+        runs = sweep(cm, t_end=at, cases=cases, workers=workers, client=client, t_out=[0.0, at])
+        native_trials = []
         for run in runs:
             s = run.case.settings
             trial = Trial(s["method"], s["rtol"], time=run.wall, status=run.status, reason=run.reason)
             if run.result is not None and run.status == "ok":
                 _fill(trial, run.result, cm, names, error_of)
+                trial.timer = None if parallel else _case_timer(cm, run.case, at)
+                native_trials.append((trial, run.case))
             trials.append(trial)
+        if parallel and repeat > 1:         # round-robin over the native rows, each round one sweep
+            rounds = [sweep(cm, t_end=at, cases=[c for _, c in native_trials], workers=workers, client=client,
+                            t_out=[0.0, at]) for _ in range(repeat)]
+            for k, (trial, _) in enumerate(native_trials):
+                trial.times = [r.runs[k].wall for r in rounds]
     for method in ("rk", "collocation"):
         if method in methods:
-            trials += _fixed_steps(cm, method, steps, at, ref_run, names, error_of, repeat)
+            trials += _fixed_steps(cm, method, steps, at, ref_run, names, error_of)
     if "baumgarte" in methods:
-        trials += _baumgarte(cm, at, tolerances, names, error_of, repeat)
+        trials += _baumgarte(cm, at, tolerances, names, error_of)
     for method in [m for m in methods if m.startswith("scipy-")]:
-        trials += _scipy(cm, method, at, tolerances, ref_run, names, error_of, repeat)
+        trials += _scipy(cm, method, at, tolerances, ref_run, names, error_of)
+    _time_rounds(trials, repeat)
     for t in trials:
         t.reliable = t.status == "ok" and t.error > UNRELIABLE * ref_error
     return AccuracyStudy(cm.name, at, names, trials, ref_text, ref_error, notes)
+
+
+def _case_timer(cm, case, at):
+    """A timer of one native run (as the sweep runs it, here)."""
+    settings = {"t_end": at, "simulate": {"t_out": [0.0, at]}, "repeat": 1}
+    return lambda: run_case(cm, case, settings).wall
+
+
+def _time_rounds(trials, repeat):
+    """`repeat` timed runs of every row that has a timer, round-robin over the rows; each row's time the
+    best of them. With one repeat, the first run's time stands (it includes building the integrators)."""
+    timed = [t for t in trials if getattr(t, "timer", None) is not None]
+    if repeat > 1 and timed:
+        for t in timed:
+            t.times = []
+        with _quiet():                       # said once, in the row's note, by its first run
+            for _ in range(repeat):
+                for t in timed:
+                    t.times.append(t.timer())
+    for t in trials:
+        if t.status == "ok" and not t.times:
+            t.times = [t.time]
+        if t.times:
+            t.time = min(t.times)
+        t.timer = None                       # (a closure over integrators: not part of the result)
+
+
+@contextlib.contextmanager
+def _quiet():
+    """Within the block, what anything prints — CasADi's C++ through the process's file descriptors 1 and 2,
+    or through Python's sys.stdout and sys.stderr — goes to the yielded list (its lines, on leaving), not to
+    the terminal. Python-level redirection alone misses the C++ writes; descriptor-level alone misses what
+    CasADi hands to Python's streams. For the study's own runs only: the descriptors are the process's."""
+    lines: list[str] = []
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    with tempfile.TemporaryFile() as sink:
+        saved = []
+        try:
+            for fd in (1, 2):
+                copy = os.dup(fd)
+                saved.append((fd, copy))
+                os.dup2(sink.fileno(), fd)
+        except OSError:                      # no such descriptor (a windowed program): Python's streams only
+            pass
+        try:
+            with solver_output.captured() as errors, contextlib.redirect_stdout(io.StringIO()) as out:
+                yield lines
+        finally:
+            _flush_c_streams()
+            for fd, copy in saved:
+                os.dup2(copy, fd)
+                os.close(copy)
+            sink.seek(0)
+            text = sink.read().decode("utf-8", errors="replace") + out.getvalue()
+            lines += [line.strip() for line in text.splitlines() if line.strip()] + errors
+
+
+def _flush_c_streams():
+    """fflush(NULL): C stdio buffers (std::cout shares them) reach the captured descriptors before they return."""
+    import ctypes
+    with contextlib.suppress(Exception):
+        ctypes.CDLL(None).fflush(None)
+
+
+def _summary(lines) -> str:
+    """What a run printed, in a few words for the table's note."""
+    if not lines:
+        return ""
+    kinds = [k for k in ("NaN detected", "Inf detected", "rootfinder process failed") if any(k in s for s in lines)]
+    if any(s.startswith("Input 0") for s in lines):
+        kinds.append("input dumps of CasADi's step function")
+    what = ", ".join(kinds) if kinds else f"{lines[0][:80]!r}"
+    return f"solver printed {what} ({len(lines)} line{'s' * (len(lines) != 1)} of output suppressed)"
 
 
 def _numbers(values, what, ok, rule):
@@ -267,8 +413,7 @@ def _reference(cm, at, reference, tolerances, notes):
     if first.failure is not None:
         raise MechnetError(f"accuracy: the reference run at rtol {tight:g} failed: {first.failure}")
     if reference is not None:
-        values = {n: float(np.asarray(v, dtype=float).ravel()[0])
-                  for n, v in dict(reference(np.array([at]))).items() if np.isfinite(np.asarray(v, dtype=float)).all()}
+        values = _reference_values(reference, at)
         if values:
             return values, 0.0, "the scene's reference(t)", first
         notes.append(f"reference(t) gives no value at t = {at:g} s (the scene's closed form ends earlier): "
@@ -293,6 +438,25 @@ def _reference(cm, at, reference, tolerances, notes):
         notes.append(f"the reference runs disagree by {ref_error:.2g} at t = {at:g} s, far beyond their tolerance "
                      f"{tight:g}: the scene is chaotic or ill-conditioned there; compare at an earlier time (at=...)")
     return {n: float(b[k]) for k, n in enumerate(names)}, ref_error, text, second
+
+
+def _reference_values(reference, at) -> dict:
+    """reference(t) at `at`, as {name: number} (non-finite values dropped), or a MechnetError naming it: a
+    scene's own code failing is the scene's mistake, said as such rather than as a traceback of the study."""
+    try:
+        given = reference(np.array([at]))
+        values = {}
+        for n, v in dict(given).items():
+            v = np.asarray(v, dtype=float).ravel()
+            if v.size and np.isfinite(v).all():
+                values[n] = float(v[0])
+    except Exception as exc:   # the scene's code: any error it raises is reported, named
+        raise MechnetError(f"accuracy: the scene's reference(t) failed at t = [{at:g}]: "
+                           f"{type(exc).__name__}: {exc}"[:400]) from exc
+    bad = [n for n in values if not isinstance(n, str)]
+    if bad:
+        raise MechnetError(f"accuracy: reference(t) must return {{name: values}} with dotted names, got key {bad[0]!r}")
+    return values
 
 
 def _fill(trial, res, cm, names, error_of):
@@ -322,7 +486,7 @@ def _plain(dae):
     return ""
 
 
-def _fixed_steps(cm, method, steps, at, ref_run, names, error_of, repeat):
+def _fixed_steps(cm, method, steps, at, ref_run, names, error_of):
     import casadi as ca
     dae = cm.dae
     why = _plain(dae) or ("explicit Runge-Kutta needs an explicit ODE" if method == "rk" and not dae.is_ode else "")
@@ -339,31 +503,51 @@ def _fixed_steps(cm, method, steps, at, ref_run, names, error_of, repeat):
         spec.update(z=dae.z, alg=dae.alg(t, dae.x, dae.z, u, p, d))
     observed = NumpyCall(dae.observed)
     index = {n: k for k, n in enumerate(dae.observed_names)}
+    scale = max(1.0, float(np.max(np.abs(error_of({nm: 0.0 for nm in names})))))    # max |reference value|
     out = []
     for n in steps:
         trial = Trial(method, float(n))
         try:
-            F = ca.integrator("F", method, spec, 0.0, [at], {"number_of_finite_elements": int(n)})
-            best = np.inf
-            for _ in range(repeat):
+            with _quiet() as printed:        # a diverging step prints "NaN detected" and input dumps
+                F = ca.integrator("F", method, spec, 0.0, [at], {"number_of_finite_elements": int(n)})
                 t0 = time.perf_counter()
                 r = F(x0=x0, z0=z0)
-                best = min(best, time.perf_counter() - t0)
+                trial.time = time.perf_counter() - t0
         except RuntimeError as exc:
-            trial.status, trial.reason = "failed", str(exc).strip().splitlines()[-1][:200]
+            trial.status, trial.reason = "failed", _casadi_reason(exc)
+        trial.output = _summary(printed)
+        if trial.status == "failed":
             out.append(trial)
             continue
         x, z = np.asarray(r["xf"]).ravel(), np.asarray(r["zf"]).ravel()
         y = observed(np.array([at]), x, z, np.asarray(u).ravel(), np.asarray(p).ravel(), np.asarray(d).ravel())[0].ravel()
-        trial.time, trial.steps = best, int(n)
+        trial.steps = int(n)
+        trial.evaluations = 4 * int(n) if method == "rk" else 0    # RK4: four stages; collocation: Newton's, uncounted
         trial.error = error_of({nm: float(y[index[nm]]) for nm in names}) if np.all(np.isfinite(y)) else np.inf
-        if not np.isfinite(trial.error):
-            trial.status, trial.reason = "failed", "diverged"
+        if not trial.error <= DIVERGED * scale:
+            trial.status, trial.reason = "failed", f"diverged (error {trial.error:.2g}: the step is too long)"
+        else:
+            trial.timer = _call_timer(F, x0, z0)
         out.append(trial)
     return out
 
 
-def _baumgarte(cm, at, tolerances, names, error_of, repeat):
+def _casadi_reason(exc) -> str:
+    """CasADi's last line, without its source path and its advice to set options the study does not own."""
+    line = str(exc).strip().splitlines()[-1]
+    line = line.split(": ", 1)[1] if line.startswith(".../") and ": " in line else line
+    return line.split(" Set '")[0][:200]
+
+
+def _call_timer(F, x0, z0):
+    def run():
+        t0 = time.perf_counter()
+        F(x0=x0, z0=z0)
+        return time.perf_counter() - t0
+    return run
+
+
+def _baumgarte(cm, at, tolerances, names, error_of):
     from .compile.index_reduction import IndexReductionOptions
     from .compile.pipeline import CompileOptions, compile_model
     source = getattr(cm, "_source", None)
@@ -380,17 +564,18 @@ def _baumgarte(cm, at, tolerances, names, error_of, repeat):
     if missing:
         return [Trial("baumgarte", np.nan, status="skipped", reason=f"{missing[0]} is not a name there")]
     runs = sweep(other, t_end=at, cases=[{"settings": {"rtol": tol, "atol": tol * ATOL_RATIO}} for tol in tolerances],
-                 workers=0, repeat=repeat, t_out=[0.0, at])
+                 workers=0, t_out=[0.0, at])
     out = []
     for run in runs:
         trial = Trial("baumgarte", run.case.settings["rtol"], time=run.wall, status=run.status, reason=run.reason)
         if run.status == "ok":
             _fill(trial, run.result, other, names, error_of)
+            trial.timer = _case_timer(other, run.case, at)
         out.append(trial)
     return out
 
 
-def _scipy(cm, method, at, tolerances, ref_run, names, error_of, repeat):
+def _scipy(cm, method, at, tolerances, ref_run, names, error_of):
     from scipy.integrate import solve_ivp
     import casadi as ca
     dae = cm.dae
@@ -409,21 +594,35 @@ def _scipy(cm, method, at, tolerances, ref_run, names, error_of, repeat):
     observed = NumpyCall(dae.observed)
     index = {n: k for k, n in enumerate(dae.observed_names)}
     name = {"radau": "Radau", "bdf": "BDF", "dop853": "DOP853"}[method[6:]]
+    implicit = {} if name == "DOP853" else {"jac": lambda t, x: jac(np.array([t]), x, none, u, p, d)[0]}
+
+    def solve(tol):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)       # overflow on the way to a failure: in the table
+            return solve_ivp(lambda t, x: rhs(np.array([t]), x, none, u, p, d)[0].ravel(), (0.0, at), x0,
+                             method=name, rtol=tol, atol=tol * ATOL_RATIO * np.array(dae.x_nominal), **implicit)
+
+    def timer(tol):
+        def run():
+            t0 = time.perf_counter()
+            solve(tol)
+            return time.perf_counter() - t0
+        return run
+
     out = []
     for tol in tolerances:
         trial = Trial(method, tol)
-        best, sol = np.inf, None
-        for _ in range(repeat):
+        with _quiet() as printed:
             t0 = time.perf_counter()
-            implicit = {} if name == "DOP853" else {"jac": lambda t, x: jac(np.array([t]), x, none, u, p, d)[0]}
-            sol = solve_ivp(lambda t, x: rhs(np.array([t]), x, none, u, p, d)[0].ravel(), (0.0, at), x0,
-                            method=name, rtol=tol, atol=tol * ATOL_RATIO * np.array(dae.x_nominal), **implicit)
-            best = min(best, time.perf_counter() - t0)
+            sol = solve(tol)
+            trial.time = time.perf_counter() - t0
+        trial.output = _summary(printed)
         if not sol.success:
             trial.status, trial.reason = "failed", sol.message
         else:
             y = observed(np.array([at]), sol.y[:, -1], none, u, p, d)[0].ravel()
             trial.error = error_of({nm: float(y[index[nm]]) for nm in names})
-            trial.time, trial.steps, trial.evaluations = best, sol.t.size - 1, int(sol.nfev)
+            trial.steps, trial.evaluations = sol.t.size - 1, int(sol.nfev)
+            trial.timer = timer(tol)
         out.append(trial)
     return out

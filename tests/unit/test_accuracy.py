@@ -163,3 +163,64 @@ def test_the_command_line_finishes_on_every_example(scene, tmp_path, capsys):
     if "def reference(" in source:          # against it, or told why not (a closed form ending earlier)
         out = capsys.readouterr().out
         assert "against the scene's reference(t)" in out or "reference(t) gives no value" in out
+
+
+def test_a_diverging_fixed_step_says_so_in_its_note_and_prints_nothing(capfd):
+    """A stiff oscillator (J = 1e-3 kg m², c = 1e5 N m/rad: 1e4 rad/s) under RK4 with 100 steps over 1 s
+    (h·ω = 100) overflows: CasADi prints "NaN detected" / "Inf detected" many times, and a collocation
+    whose Newton solve fails dumps its step function's inputs. All of it lands in the rows' notes."""
+    from models import oscillator
+    result = accuracy.study(oscillator(J=0.001, c=1e5).compile(), 1.0, methods=["rk", "collocation"],
+                            tolerances=(1e-4,), steps=(100, 1000), repeat=2)
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
+    rk = {t.setting: t for t in result.trials if t.method == "rk"}
+    assert rk[100].status == "failed" and "diverged" in rk[100].reason
+    assert "NaN detected" in rk[100].output and "suppressed" in rk[100].output
+    assert "NaN detected" in result.to_markdown()
+
+
+def test_timings_are_taken_round_robin_and_a_tie_is_decided_on_counted_work():
+    calls = []
+    rows = [accuracy.Trial("rk", n, error=1e-7, time=1.0, evaluations=4 * n) for n in (100, 300)]
+    for t in rows:
+        t.timer = (lambda t: lambda: calls.append(t.setting) or 1e-3 * t.setting)(t)
+    accuracy._time_rounds(rows, 3)
+    assert calls == [100, 300] * 3
+    assert rows[0].times == [0.1] * 3 and rows[0].time == 0.1 and rows[0].timer is None
+
+    def trial(method, best, median, evaluations):
+        return accuracy.Trial(method, 1e-6, error=1e-7, time=best, times=[best, median, median],
+                              evaluations=evaluations)
+    # ranges 1.0-1.3 ms and 1.2-1.5 ms overlap: a tie, the one with fewer evaluations wins
+    fast, lean = trial("cvodes-adams", 1.0e-3, 1.3e-3, 900), trial("cvodes-bdf", 1.2e-3, 1.5e-3, 300)
+    study = accuracy.AccuracyStudy("s", 1.0, ("x",), [fast, lean], "reference(t)", 0.0)
+    assert study.recommend(1e-6) is lean
+    # 1.0-1.1 ms against 1.7-1.8 ms: no tie, the faster wins whatever it counts
+    slow = trial("cvodes-bdf", 1.7e-3, 1.8e-3, 300)
+    quick = trial("cvodes-adams", 1.0e-3, 1.1e-3, 900)
+    assert accuracy.AccuracyStudy("s", 1.0, ("x",), [quick, slow], "reference(t)", 0.0).recommend(1e-6) is quick
+    table = study.to_markdown()
+    assert "| 1 / 1.3 |" in table and "median of 3 repeats" in table
+    with pytest.raises(mn.MechnetError, match="recommend"):
+        study.recommend(float("nan"))
+
+
+def test_a_scene_reference_that_raises_is_named(tmp_path):
+    def reference(t):
+        raise ValueError("boom")
+    with pytest.raises(mn.MechnetError, match=r"reference\(t\) failed .*ValueError: boom"):
+        accuracy.study(chain(2).compile(), 0.2, methods=["cvodes-adams"], tolerances=(1e-4,), reference=reference)
+
+
+@pytest.mark.parametrize("args, match", [
+    (["--target", "nan"], "--target nan"),
+    (["--target", "-1"], "--target -1"),
+    (["-o", "FILE"], "is a file"),
+])
+def test_the_command_line_refuses_before_the_study(args, match, tmp_path, capsys):
+    (tmp_path / "FILE").write_text("x")
+    args = [str(tmp_path / a) if a == "FILE" else a for a in args]
+    assert main(["accuracy", str(EXAMPLES / "double_pendulum.py"), *args]) != 0
+    assert match in capsys.readouterr().err
+    assert not list(tmp_path.glob("*_accuracy*"))
