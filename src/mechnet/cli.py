@@ -119,12 +119,16 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _accuracy(args: argparse.Namespace) -> int:
+    import math
+
     from mechnet.accuracy import TOLERANCES, study
     from mechnet.scene import load_scene
 
     out = args.out or Path("mechnet-accuracy")
     if out.exists() and not out.is_dir():    # said now, not after the study
         raise SceneError(f"-o {out} is a file; give a folder for the plot, table and CSV")
+    if not (math.isfinite(args.target) and args.target > 0):
+        raise MechnetError(f"--target {args.target:g}: give the error to recommend settings for, a number > 0")
     scene = load_scene(args.file)
     cm = scene.model().compile()
     t_end = args.t_end if args.t_end is not None else min(scene.t_end, 10.0)
