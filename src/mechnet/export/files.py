@@ -38,13 +38,17 @@ def export(cm, path, kind: str = "casadi", *, fmi: int = 2, overwrite: bool = Fa
     interrupted export leaves the previous one (or nothing) at `path`. `_option` is how the caller
     names the path and the flag in messages (the CLI: "-o", "--overwrite")."""
     from ..core.arguments import flag
-    if kind not in KINDS:
+    if not isinstance(kind, str) or kind not in KINDS:
         raise ExportError(f"export(kind={kind!r}): kind must be one of {', '.join(map(repr, KINDS))}")
+    if isinstance(fmi, bool) or not isinstance(fmi, int) or fmi not in (2, 3):
+        raise ExportError(f"export(fmi={fmi!r}): FMI version must be 2 or 3")
     overwrite = flag(overwrite, "overwrite")
+    names = CLI_NAMES if _option == "cli" else API_NAMES
     if not isinstance(path, (str, os.PathLike)):
         raise ExportError(f"export(path={path!r}): give a file system path (str or pathlib.Path)")
+    if not os.fspath(path).strip():
+        raise ExportError(f"export: {names[0]} is empty; give the folder (or .fmu file) to write")
     path = Path(path)
-    names = CLI_NAMES if _option == "cli" else API_NAMES
     if kind == "fmu":
         from .fmu import check_fmu_arguments
         check_fmu_arguments(path, fmi)
@@ -71,6 +75,7 @@ def replaceable(path: Path, kind: str, overwrite: bool, names=API_NAMES) -> bool
     why not: it exists without overwrite, or is not a previous mechnet export (see `export`)."""
     where, flag_name = names
     if not os.path.lexists(path):
+        _under_a_file(Path(path), where)
         return False
     if not overwrite:
         raise ExportError(f"export: {path} exists; pass {flag_name} to replace it (or choose another path)")
@@ -79,6 +84,15 @@ def replaceable(path: Path, kind: str, overwrite: bool, names=API_NAMES) -> bool
         raise ExportError(f"export: {flag_name} replaces only a previous mechnet export, and {path} {why}; "
                           f"nothing was deleted: choose another path or remove it yourself")
     return True
+
+
+def _under_a_file(path: Path, where: str) -> None:
+    """ExportError when a missing `path` cannot be made because a folder it would be in is a file."""
+    for parent in path.absolute().parents:
+        if os.path.lexists(parent):
+            if not parent.is_dir():
+                raise ExportError(f"export: {where} {path} cannot be made: {parent} is a file, not a folder")
+            return
 
 
 def _not_an_export(path: Path, kind: str) -> str | None:
@@ -144,7 +158,10 @@ def _into_place(path: Path, kind: str, write, overwrite: bool, names) -> Path:
     previous export there, checked again now). The temporary folder is removed on any error or
     interruption, so `path` holds either what it held before or the complete new export."""
     parent = _parent(path, names)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}{_TEMPORARY}", dir=parent))
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}{_TEMPORARY}", dir=parent))
+    except OSError as exc:
+        raise ExportError(f"export: cannot write in {parent} for {path} ({exc.strerror or exc})") from None
     try:
         try:
             write(tmp)
@@ -199,6 +216,7 @@ def _swap(new: Path, path: Path, kind: str, overwrite: bool, names) -> None:
 def _parent(path: Path, names) -> Path:
     """The folder `path` is written in, made when missing; ExportError when it cannot be."""
     parent = path.absolute().parent
+    _under_a_file(path, names[0])
     try:
         parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

@@ -36,7 +36,7 @@ CALLED = ("init", "solve_alg", "ode", "observed", "zero", "forward", "alg_jac") 
 
 def check_fmu_arguments(path: Path, fmi) -> None:
     """ExportError for an FMI version, platform or path an FMU cannot be written for."""
-    if fmi not in (2, 3):
+    if isinstance(fmi, bool) or not isinstance(fmi, int) or fmi not in (2, 3):
         raise ExportError(f"export(fmi={fmi!r}): FMI version must be 2 or 3")
     if (platform.system(), platform.machine()) != ("Linux", "x86_64"):
         raise ExportError(f"export(kind='fmu'): FMUs are built for Linux on x86_64 only, and this is "
@@ -74,7 +74,11 @@ def write_fmu(fns: dict, path: Path, fmi: int, overwrite: bool = False,
         binaries.mkdir(parents=True)
         compile_shared([sources / WRAPPER, sources / f"{ident}.c"], binaries / f"{ident}.so", [sources],
                        defines={"FMI_VERSION": str(fmi)})
-        handle, archive_path = tempfile.mkstemp(prefix=f".{path.name}{_TEMPORARY}", dir=_parent(path, names))
+        parent = _parent(path, names)
+        try:
+            handle, archive_path = tempfile.mkstemp(prefix=f".{path.name}{_TEMPORARY}", dir=parent)
+        except OSError as exc:
+            raise ExportError(f"export: cannot write in {parent} for {path} ({exc.strerror or exc})") from None
         os.close(handle)
         archive_path = Path(archive_path)
         try:

@@ -214,7 +214,7 @@ def _members(path: Path, files) -> dict:
                           f"{len(transitions)} transitions (files['transition'])")
     missing = [name for name in SERIALISED if name not in files]
     if missing:
-        raise ExportError(f"load: model.json files lacks {', '.join(map(repr, missing))}")
+        raise ExportError(f"load: model.json 'files' lacks {', '.join(map(repr, missing))}")
     unknown = [name for name in files if name not in (*SERIALISED, "transition", "rest")]
     if unknown:
         raise ExportError(f"load: model.json files[{unknown[0]!r}] is no function of the contract an export "

@@ -169,6 +169,10 @@ def _selection(c: _Checker, record: dict, states: list) -> None:
                                       f"{selection['states']!r:.200}")
 
 
+_SIZED_BY = {"x": "'x'", "xdot": "'x'", "z": "'z'", "y": "'observed'", "u": "'u'", "p": "'p'", "d": "'d'",
+             "s": "'starts'"}
+
+
 def _dependencies(c: _Checker, record: dict, sizes: dict) -> None:
     """The dependency patterns an FMU made from the loaded model declares: [row, column] within the sizes."""
     deps = c.of(record.get("dependencies"), dict, "'dependencies'", "a mapping of patterns")
@@ -183,8 +187,9 @@ def _dependencies(c: _Checker, record: dict, sizes: dict) -> None:
             if not isinstance(pair, list) or len(pair) != 2 or any(
                     isinstance(i, bool) or not isinstance(i, int) for i in pair) \
                     or not (0 <= pair[0] < sizes[rows] and 0 <= pair[1] < sizes[cols]):
-                c.fail(f"dependencies[{key!r}][{k}]", f"must be [row, column] within {sizes[rows]} x "
-                                                      f"{sizes[cols]}, not {pair!r:.80}")
+                c.fail(f"dependencies[{key!r}][{k}]", f"must be [row, column] within {sizes[rows]} x {sizes[cols]} "
+                                                      f"(the sizes of {_SIZED_BY[rows]} and {_SIZED_BY[cols]}), "
+                                                      f"not {pair!r:.80}")
 
 
 def _parameters(c: _Checker, record: dict, p: list) -> None:
