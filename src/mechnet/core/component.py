@@ -49,6 +49,8 @@ def _collect(cls) -> dict[str, Declaration]:
 
 
 def _check_name(name, what) -> str:
+    if name is None:           # `Inertia(J=1.0)`: said as a mechnet error, not Python's missing-argument TypeError
+        raise ParameterError(f"{what}: name is required (it becomes part of dotted names), e.g. {what}(name=\"j1\", ...)")
     if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
         raise ParameterError(f"{what}: name {name!r} must be a Python identifier (it becomes part of dotted names)")
     return name
@@ -125,7 +127,7 @@ class Component:
             cls.__signature__ = signature(cls)
             cls.__doc__ = docstring(cls)
 
-    def __init__(self, name: str, **kwargs):
+    def __init__(self, name: str | None = None, **kwargs):
         if type(self).abstract:
             raise TypeError(f"{type(self).__name__} is an abstract base; use one of its subclasses")
         self.name = _check_name(name, type(self).__name__)

@@ -78,7 +78,10 @@ def _own_init_parameters(cls) -> list[inspect.Parameter]:
         sig = inspect.signature(cls.__init__, eval_str=True)
     except (NameError, TypeError):               # an annotation that names something not importable here
         sig = inspect.signature(cls.__init__)
-    return list(sig.parameters.values())[1:]
+    # `name` defaults to None in the code only so that leaving it out is a ParameterError saying so (not
+    # Python's missing-argument TypeError); to a user it is required, and the signature says that
+    return [p.replace(default=inspect.Parameter.empty, annotation=p.annotation if p.annotation is p.empty else str)
+            if p.name == "name" and p.default is None else p for p in list(sig.parameters.values())[1:]]
 
 
 def signature(cls) -> inspect.Signature:

@@ -124,7 +124,7 @@ class _WorldLoad(Component, abstract=True):
     frame_b = Port(Frame, doc="the frame the load acts on")
     _what = "force"
 
-    def __init__(self, name: str, value=(0.0, 0.0, 0.0), resolve_in: str = "world", **kwargs):
+    def __init__(self, name: str | None = None, value=(0.0, 0.0, 0.0), resolve_in: str = "world", **kwargs):
         label = f"{name} ({type(self).__name__})"
         if resolve_in not in ("world", "frame_b"):
             raise ParameterError(f"{label}: resolve_in = {resolve_in!r} must be 'world' or 'frame_b'")
@@ -153,7 +153,7 @@ class WorldForce(_WorldLoad):
     _argument_docs = {"force": ("N", "three numbers or signals (mechnet.components.signals)"),
                       "resolve_in": ("", "'world' or 'frame_b': the axes the force is given in")}
 
-    def __init__(self, name: str, force=(0.0, 0.0, 0.0), resolve_in: str = "world", **kwargs):
+    def __init__(self, name: str | None = None, force=(0.0, 0.0, 0.0), resolve_in: str = "world", **kwargs):
         super().__init__(name, force, resolve_in, **kwargs)
 
     def equations(self):
@@ -169,7 +169,7 @@ class WorldTorque(_WorldLoad):
     _argument_docs = {"torque": ("N*m", "three numbers or signals (mechnet.components.signals)"),
                       "resolve_in": ("", "'world' or 'frame_b': the axes the torque is given in")}
 
-    def __init__(self, name: str, torque=(0.0, 0.0, 0.0), resolve_in: str = "world", **kwargs):
+    def __init__(self, name: str | None = None, torque=(0.0, 0.0, 0.0), resolve_in: str = "world", **kwargs):
         super().__init__(name, torque, resolve_in, **kwargs)
 
     def equations(self):

@@ -16,7 +16,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from ...core.declarations import Flag, Param, Port, State, Var, direction, unit_vector
+from ...core.declarations import Flag, Param, Port, State, Var, direction, finite_number, unit_vector
 from ...core.equation import Eq, der
 from ...core.errors import ParameterError
 from ..rotational.interfaces import Flange as RotationalFlange
@@ -126,7 +126,7 @@ class _Rotation3D(PartialMultiJoint, abstract=True):
         "w_rel_a_start": ("rad/s", "start relative angular velocity resolved in frame_a; sets w_rel_start"),
     }
 
-    def __init__(self, name: str, R_rel_start=None, axis_start=None, angle_start=None, w_rel_a_start=None, **kwargs):
+    def __init__(self, name: str | None = None, R_rel_start=None, axis_start=None, angle_start=None, w_rel_a_start=None, **kwargs):
         label = f"{name} ({type(self).__name__})"
         given = [k for k, v in (("Q_start", kwargs.get("Q_start")), ("R_rel_start", R_rel_start),
                                 ("axis_start", axis_start)) if v is not None]
@@ -138,7 +138,8 @@ class _Rotation3D(PartialMultiJoint, abstract=True):
             if R_rel_start is not None:
                 kwargs["Q_start"] = quaternion_of_matrix(R_rel_start, "R_rel_start")
             elif axis_start is not None:
-                kwargs["Q_start"] = quaternion_of_axis_angle(axis_start, float(angle_start), "axis_start")
+                angle = finite_number(angle_start, "angle_start", ValueError)
+                kwargs["Q_start"] = quaternion_of_axis_angle(axis_start, angle, "axis_start")
         except (TypeError, ValueError) as exc:
             raise ParameterError(f"{label}: {exc}") from None
         if w_rel_a_start is not None:
@@ -148,8 +149,11 @@ class _Rotation3D(PartialMultiJoint, abstract=True):
             if kwargs.get("Q_start") is None:
                 raise ParameterError(f"{label}: w_rel_a_start (resolved in frame_a) needs the start orientation "
                                      f"(Q_start, R_rel_start or axis_start/angle_start)")
-            R = matrix_of_quaternion(kwargs["Q_start"])
-            kwargs["w_rel_start"] = R.T @ np.asarray(w_rel_a_start, dtype=float).ravel()
+            # both checked as the base class checks a start value, before they are multiplied (a Q_start of 3
+            # numbers or a w_rel_a_start of 2 escaped as numpy's matmul error, issue 32)
+            Q = self._vector(label, "Q", "start", kwargs["Q_start"], 4)
+            w_a = self._vector(label, "w_rel_a", "start", w_rel_a_start, 3)
+            kwargs["w_rel_start"] = matrix_of_quaternion(Q).T @ w_a
         super().__init__(name, **kwargs)
 
     def check(self):

@@ -25,7 +25,7 @@ class NumberIsConstant:
 
     _reference: str = ""
 
-    def __init__(self, name: str, **kwargs):
+    def __init__(self, name: str | None = None, **kwargs):
         value = kwargs.get(self._reference)
         if (isinstance(value, numbers.Real) and not not_a_number(value) and math.isfinite(value)):
             kwargs[self._reference] = Constant(value)
