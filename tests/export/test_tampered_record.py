@@ -60,7 +60,8 @@ _DROPPABLE = ("time_events", "declared_starts", "folded_parameters", "parameter_
               "quaternions")
 ACCEPTED = ({(k, "delete") for k in ("quaternions", "linear_tears", "parameter_requirements", "sha256")}
             | {(k, m) for k in _DROPPABLE for m in ("list", "drop")} | {("guesses", "mapping"), ("guesses", "drop")}
-            | {("name", "string"), ("time_events", "add"), ("parameter_requirements", "add"), ("sha256", "add"), ("selection", "add")})
+            | {("name", "string"), ("time_events", "add"), ("parameter_requirements", "add"), ("sha256", "add"),
+               ("selection", "add")})
 # fields load does not read (an FMU writes its own causality and variability), and free text
 _UNREAD = ("causality", "variability")
 _TEXT = ("unit", "kind", "label", "why", "owner", "doc", "check", "reason")

@@ -150,6 +150,11 @@ def model_data(meta: dict, variables: list, ident: str, n_transitions: int, fmi:
     out += _c_array("int", "mn_zero_at_start", (int(e.get("at_start", False)) for e in meta["zero"]))
     out += (f"static const char *const mn_zero_labels[{max(len(meta['zero']), 1)}] = "
             f"{{{', '.join(_c_string(e['label']) for e in meta['zero']) or '0'}}};\n")
+    names = ["time"] * (n_var + 1)
+    for v in variables:
+        names[v["vr"]] = v["name"]
+    out += (f"static const char *const mn_vr_name[{n_var + 1}] = "
+            f"{{{', '.join(_c_string(name) for name in names)}}};\n")
     for name, values in (("kind", kind), ("index", index), ("set", setter), ("set_index", set_index),
                          ("known", known), ("known_index", known_index)):
         out += _c_array("int", f"mn_vr_{name}", values)

@@ -356,9 +356,30 @@ static void refuse_whole(Instance *m, const double *p, const double *u, const do
     changed(m);
 }
 
+/* a NaN or infinite value given for a variable, a time or a state is refused whole: nothing of the call is
+ * taken, so the instance keeps the values it had (a NaN input would otherwise reach the Newton iterations) */
+static int finite_values(Instance *m, const char *what, const uint32_t *vr, const double *value, size_t n) {
+    size_t i;
+    for (i = 0; i < n; i++) {
+        if (isfinite(value[i])) continue;
+        if (vr && vr[i] <= MN_NVAR)
+            logf_(m, ST_ERROR, "logStatusError", "%s: %s (value reference %u) = %g is not finite; nothing was set",
+                  what, mn_vr_name[vr[i]], vr[i], value[i]);
+        else if (vr)
+            logf_(m, ST_ERROR, "logStatusError", "%s: value reference %u = %g is not finite; nothing was set",
+                  what, vr[i], value[i]);
+        else
+            logf_(m, ST_ERROR, "logStatusError", "%s: value %lu = %g is not finite; nothing was set", what,
+                  (unsigned long)i, value[i]);
+        return ST_ERROR;
+    }
+    return ST_OK;
+}
+
 static int set_real(Instance *m, const uint32_t *vr, size_t n, const double *value) {
     size_t i;
     double p_before[MN_NP + 1], u_before[MN_NU + 1], x_before[MN_NX + 1];
+    if (finite_values(m, "set a real value", vr, value, n) != ST_OK) return ST_ERROR;
     memcpy(p_before, m->p, sizeof(double) * MN_NP);
     memcpy(u_before, m->u, sizeof(double) * MN_NU);
     memcpy(x_before, m->x, sizeof(double) * MN_NX);
@@ -488,7 +509,22 @@ static int completed_step(Instance *m) {
     return st;
 }
 
-static int set_time(Instance *m, double t) { m->t = t; changed(m); return ST_OK; }
+static int set_time(Instance *m, double t) {
+    if (!isfinite(t)) {
+        logf_(m, ST_ERROR, "logStatusError", "set time: t = %g is not finite; the time stays %.17g", t, m->t);
+        return ST_ERROR;
+    }
+    m->t = t;
+    changed(m);
+    return ST_OK;
+}
+
+/* the start time an importer gives (fmi2SetupExperiment, fmi3EnterInitializationMode) */
+static int start_time(Instance *m, double t) {
+    if (isfinite(t)) { m->t = t; return ST_OK; }
+    logf_(m, ST_ERROR, "logStatusError", "start time %g is not finite", t);
+    return ST_ERROR;
+}
 
 /* a vector the importer passes: its length must be the model's */
 static int sized(Instance *m, const char *what, size_t n, size_t expected) {
@@ -500,6 +536,7 @@ static int sized(Instance *m, const char *what, size_t n, size_t expected) {
 
 static int set_states(Instance *m, const double *x, size_t n) {
     if (sized(m, "set continuous states", n, MN_NX) != ST_OK) return ST_ERROR;
+    if (finite_values(m, "set continuous states", NULL, x, n) != ST_OK) return ST_ERROR;
     memcpy(m->x, x, sizeof(double) * n);
     changed(m);
     return ST_OK;
@@ -563,7 +600,7 @@ EXPORT fmi2Component fmi2Instantiate(const char *name, int type, const char *gui
 }
 EXPORT void fmi2FreeInstance(fmi2Component c) { destroy((Instance *)c); }
 EXPORT int fmi2SetupExperiment(fmi2Component c, fmi2Boolean tolDefined, double tol, double start, fmi2Boolean stopDefined, double stop) {
-    (void)tolDefined; (void)tol; (void)stopDefined; (void)stop; ((Instance *)c)->t = start; return ST_OK; }
+    (void)tolDefined; (void)tol; (void)stopDefined; (void)stop; return start_time((Instance *)c, start); }
 EXPORT int fmi2EnterInitializationMode(fmi2Component c) { ((Instance *)c)->mode = MODE_INIT; return ST_OK; }
 EXPORT int fmi2ExitInitializationMode(fmi2Component c) { return exit_init((Instance *)c); }
 EXPORT int fmi2Terminate(fmi2Component c) { ((Instance *)c)->mode = MODE_TERMINATED; return ST_OK; }
@@ -654,15 +691,26 @@ EXPORT void fmi3FreeInstance(fmi3Instance c) { destroy((Instance *)c); }
 EXPORT int fmi3EnterInitializationMode(fmi3Instance c, bool tolDefined, double tol, double start, bool stopDefined, double stop) {
     Instance *m = (Instance *)c;
     (void)tolDefined; (void)tol; (void)stopDefined; (void)stop;
-    m->t = start; m->mode = MODE_INIT; m->need_init = 1; return ST_OK; }
+    if (start_time(m, start) != ST_OK) return ST_ERROR;
+    m->mode = MODE_INIT; m->need_init = 1; return ST_OK; }
 EXPORT int fmi3ExitInitializationMode(fmi3Instance c) { return exit_init((Instance *)c); }
 EXPORT int fmi3EnterEventMode(fmi3Instance c) { return enter_event_mode((Instance *)c); }
 EXPORT int fmi3Terminate(fmi3Instance c) { ((Instance *)c)->mode = MODE_TERMINATED; return ST_OK; }
 EXPORT int fmi3Reset(fmi3Instance c) { return reset((Instance *)c); }
+/* every variable of this FMU is a scalar: n value references take exactly n values, and a caller's buffer
+ * of another length is refused before anything is read or written (never a write past its end) */
+static int scalars(Instance *m, const char *call, const char *what, size_t n_refs, size_t n_values) {
+    if (n_values == n_refs) return ST_OK;
+    logf_(m, ST_ERROR, "logStatusError", "%s: %s = %lu for %lu value references; every variable of this FMU is a "
+          "scalar, so they must be equal", call, what, (unsigned long)n_values, (unsigned long)n_refs);
+    return ST_ERROR;
+}
 EXPORT int fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, double v[], size_t nv) {
-    (void)nv; return get_real((Instance *)c, vr, n, v); }
+    Instance *m = (Instance *)c;
+    return scalars(m, "fmi3GetFloat64", "nValues", n, nv) != ST_OK ? ST_ERROR : get_real(m, vr, n, v); }
 EXPORT int fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t n, const double v[], size_t nv) {
-    (void)nv; return set_real((Instance *)c, vr, n, v); }
+    Instance *m = (Instance *)c;
+    return scalars(m, "fmi3SetFloat64", "nValues", n, nv) != ST_OK ? ST_ERROR : set_real(m, vr, n, v); }
 #define NO_TYPE(T, C) \
     EXPORT int fmi3Get##T(fmi3Instance c, const fmi3ValueReference vr[], size_t n, C v[], size_t nv) { \
         (void)vr; (void)v; (void)nv; return n ? UNSUPPORTED(c, "a " #T " variable") : ST_OK; } \
@@ -700,7 +748,10 @@ EXPORT int fmi3DeserializeFMUState(fmi3Instance c, const uint8_t b[], size_t n, 
 EXPORT int fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unknown[], size_t nu,
                                         const fmi3ValueReference known[], size_t nk, const double seed[], size_t ns,
                                         double sens[], size_t nsens) {
-    (void)ns; (void)nsens; return directional((Instance *)c, unknown, nu, known, nk, seed, sens); }
+    Instance *m = (Instance *)c;
+    if (scalars(m, "fmi3GetDirectionalDerivative", "nSeed", nk, ns) != ST_OK
+        || scalars(m, "fmi3GetDirectionalDerivative", "nSensitivity", nu, nsens) != ST_OK) return ST_ERROR;
+    return directional(m, unknown, nu, known, nk, seed, sens); }
 EXPORT int fmi3GetAdjointDerivative(fmi3Instance c, const fmi3ValueReference a[], size_t b, const fmi3ValueReference d[], size_t e,
                                     const double f[], size_t g, double h[], size_t i) {
     (void)a; (void)b; (void)d; (void)e; (void)f; (void)g; (void)h; (void)i; return UNSUPPORTED(c, "adjoint derivatives"); }
