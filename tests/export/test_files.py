@@ -115,6 +115,25 @@ def test_export_checks_its_arguments(tmp_path, double_pendulum):
         double_pendulum.export(tmp_path / "x", kind="fmu")
     with pytest.raises(mn.MechnetError, match="overwrite"):
         double_pendulum.export(tmp_path / "y", overwrite="yes")
+    for fmi in (1, 2.0, True, "3", None):
+        with pytest.raises(ExportError, match=r"export\(fmi=.*FMI version must be 2 or 3"):
+            double_pendulum.export(tmp_path / "x.fmu", kind="fmu", fmi=fmi)
+    for kind in (None, ["casadi"], "CASADI"):
+        with pytest.raises(ExportError, match=r"export\(kind=.*kind must be one of"):
+            double_pendulum.export(tmp_path / "x", kind=kind)
+    with pytest.raises(ExportError, match=r"export\(path=\.\.\.\) is empty"):
+        double_pendulum.export("")
+
+
+@pytest.mark.parametrize("kind, name", [("casadi", "sub"), ("c", "sub/deeper"), ("fmu", "sub.fmu")])
+def test_a_path_under_a_file_is_refused_naming_it(tmp_path, double_pendulum, kind, name):
+    """A fuzz case of issue 32: an export path below a regular file gave a raw NotADirectoryError."""
+    (tmp_path / "somefile.txt").write_text("mine")
+    with pytest.raises(ExportError, match=r"somefile\.txt/sub.* cannot be made: .*somefile\.txt is a file"):
+        double_pendulum.export(tmp_path / "somefile.txt" / name, kind=kind)
+    assert (tmp_path / "somefile.txt").read_text() == "mine"
+    with pytest.raises(ExportError, match=r"somefile\.txt exists; pass overwrite=True"):
+        double_pendulum.export(tmp_path / "somefile.txt")
 
 
 def test_load_refuses_a_newer_format_and_other_kinds(tmp_path, double_pendulum):

@@ -135,3 +135,79 @@ def test_tampered_keys_are_named(folder, change, key):
     _tamper(folder, change)
     with pytest.raises(ExportError, match=key):
         load(folder)
+
+
+# ---- the SHA-256 of each file, recorded at export: a folder mixing two exports is refused
+
+@pytest.fixture(scope="module")
+def other(tmp_path_factory):
+    """An export of the same signature (the pendulum 2 m long): its files fit the first one's record."""
+    return cartesian_pendulum(L=2.0).compile().export(tmp_path_factory.mktemp("other") / "pendulum")
+
+
+def test_a_function_of_another_export_is_refused(folder, other):
+    assert (other / "alg.casadi").read_bytes() != (folder / "alg.casadi").read_bytes()      # L enters alg
+    shutil.copy(other / "alg.casadi", folder / "alg.casadi")
+    with pytest.raises(ExportError, match=r"alg\.casadi does not match the SHA-256.*mixes two exports"):
+        load(folder)
+
+
+def test_the_record_of_another_export_is_refused(folder, other):
+    shutil.copy(other / "model.json", folder / "model.json")
+    with pytest.raises(ExportError, match=r"\.casadi does not match the SHA-256"):
+        load(folder)
+
+
+def test_an_edited_byte_is_refused(folder):
+    data = bytearray((folder / "observed.casadi").read_bytes())
+    data[len(data) // 2] = ord("a") if data[len(data) // 2] != ord("a") else ord("b")
+    (folder / "observed.casadi").write_bytes(bytes(data))
+    with pytest.raises(ExportError, match=r"observed\.casadi does not match the SHA-256"):
+        load(folder)
+
+
+def test_an_export_without_digests_loads(folder):
+    """Exports written before mechnet recorded digests have no "sha256": they load unchecked."""
+    from mechnet.export import ExportWarning
+    _tamper(folder, lambda r: r.pop("sha256"))
+    with pytest.warns(ExportWarning):
+        assert load(folder).record["name"] == "pendulum"
+
+
+@pytest.mark.parametrize("change, match", [
+    (lambda r: r["sha256"].__setitem__("ode.casadi", "0" * 63), r"sha256\['ode\.casadi'\]"),
+    (lambda r: r["sha256"].pop("zero.casadi"), r"'sha256'.*zero\.casadi"),
+    (lambda r: r.__setitem__("sha256", ["ode.casadi"]), r"'sha256'"),
+])
+def test_a_tampered_digest_is_named(folder, change, match):
+    _tamper(folder, change)
+    with pytest.raises(ExportError, match=match):
+        load(folder)
+
+
+@pytest.fixture(scope="module")
+def library(tmp_path_factory):
+    if compiler() is None:
+        pytest.skip("no C compiler on this machine")
+    return cartesian_pendulum().compile().export(tmp_path_factory.mktemp("lib") / "pendulum", kind="c")
+
+
+def test_load_library_checks_the_library(library, tmp_path):
+    from mechnet.export import load_library
+    folder = shutil.copytree(library, tmp_path / "copy")
+    assert "ode" in load_library(folder)
+    name = json.loads((folder / "model.json").read_text())["files"]["library"]
+    for value in ("../" + name, "/usr/lib/libc.so.6", 3):
+        _tamper(folder, lambda r: r["files"].__setitem__("library", value))
+        with pytest.raises(ExportError, match=r"files\['library'\]"):
+            load_library(folder)
+    _tamper(folder, lambda r: r["files"].__setitem__("library", name))
+    with open(folder / name, "ab") as f:
+        f.write(b"\0")                                  # still a library, not the one exported
+    with pytest.raises(ExportError, match=rf"{name} does not match the SHA-256"):
+        load_library(folder)
+    _tamper(folder, lambda r: r["sha256"].pop(name))    # one the user rebuilt: its digest removed
+    assert "ode" in load_library(folder)
+    _tamper(folder, lambda r: r["files"]["functions"].__setitem__("ode", "a; b"))
+    with pytest.raises(ExportError, match=r"'files' must hold"):
+        load_library(folder)
