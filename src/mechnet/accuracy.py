@@ -520,7 +520,7 @@ def _fixed_steps(cm, method, steps, at, ref_run, names, error_of):
             out.append(trial)
             continue
         x, z = np.asarray(r["xf"]).ravel(), np.asarray(r["zf"]).ravel()
-        y = observed(np.array([at]), x, z, np.asarray(u).ravel(), np.asarray(p).ravel(), np.asarray(d).ravel())[0].ravel()
+        y = observed(np.array([at]), x, z, *(np.asarray(v).ravel() for v in (u, p, d)))[0].ravel()
         trial.steps = int(n)
         trial.evaluations = 4 * int(n) if method == "rk" else 0    # RK4: four stages; collocation: Newton's, uncounted
         trial.error = error_of({nm: float(y[index[nm]]) for nm in names}) if np.all(np.isfinite(y)) else np.inf
@@ -586,7 +586,7 @@ def _scipy(cm, method, at, tolerances, ref_run, names, error_of):
     if why:
         return [Trial(method, np.nan, status="skipped", reason=why)]
     x0 = start[0]
-    u, p, d = np.array(dae.u_default, dtype=float), np.array(dae.p_value, dtype=float), np.array(dae.d_value, dtype=float)
+    u, p, d = (np.array(v, dtype=float) for v in (dae.u_default, dae.p_value, dae.d_value))
     none = np.zeros(0)
     rhs = NumpyCall(dae.ode)
     jac = NumpyCall(ca.Function("ode_jacobian", [dae.t, dae.x, dae.z, dae.u, dae.p, dae.d],

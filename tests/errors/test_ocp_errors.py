@@ -250,3 +250,68 @@ def test_a_freed_parameter_is_kept_to_its_own_check():
     sol = prob.solve(ocp.Collocation(N=10))
     assert sol.success and 0.0 <= sol.params["fr.mu_k"] <= 1e-8
     assert sol.verify()["max_deviation"] < 1e-6
+
+
+# ---- fuzzed bad inputs (issue 32): each refused by name, none a raw Python or CasADi error ------------
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(start=[1, 2]), r"Problem\(start=...\) takes a mapping .*got list"),
+    (dict(start="mass.s"), r"Problem\(start=...\) takes a mapping .*got str"),
+    (dict(start={1: 2.0}), r"Problem\(start=...\): keys are dotted names .*got 1"),
+    (dict(params=[1.0]), r"Problem\(params=...\) takes a mapping"),
+    (dict(params={3: 1.0}), r"Problem\(params=...\): keys are dotted names"),
+], ids=["start-list", "start-str", "start-key", "params-list", "params-key"])
+def test_start_and_params_must_be_mappings(cm, kwargs, message):
+    with pytest.raises(ocp.OcpError, match=message):
+        ocp.Problem(cm, 1, **kwargs)
+
+
+def test_a_symbol_the_problem_did_not_make_is_refused(prob):
+    stray = ca.SX.sym("y")
+    with pytest.raises(ocp.OcpError, match=r"subject_to\(...\): y is not one of the problem's quantities"):
+        prob.subject_to(prob.var("mass.s") + stray <= 1)
+    with pytest.raises(ocp.OcpError, match=r"minimize\(...\): y is not one of the problem's quantities"):
+        prob.minimize(prob.at_end(prob.var("mass.s")) * stray)
+    # a symbol of the same name is another symbol: not the problem's either
+    with pytest.raises(ocp.OcpError, match=r"integral\(...\): mass.s is not one of the problem's quantities"):
+        prob.integral(ca.SX.sym("mass.s"))
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda p: p.minimize(ca.SX(math.nan)), r"minimize\(nan\): holds a NaN"),
+    (lambda p: p.subject_to(p.var("mass.s") <= 1, label=3), r"label=3.*a string"),
+    (lambda p: p.free_parameter(3), r"parameter names are dotted strings .*got 3"),
+], ids=["nan-objective", "label", "parameter-name"])
+def test_other_bad_arguments_are_named(prob, call, message):
+    with pytest.raises(ocp.OcpError, match=message):
+        call(prob)
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: ocp.Collocation(N=10 ** 9), r"N = 1000000000: .* exceed the 1e\+06 decision variables"),
+    (lambda: ocp.Collocation(N=10, degree=10), r"degree = 10: collocation points go up to degree 9"),
+    (lambda: ocp.Collocation(N=0), r"N \(intervals\) = 0 must be a whole number of at least 2"),
+    (lambda: ocp.MultipleShooting(N=10 ** 9), r"N = 1000000000: .* exceed the 1e\+06"),
+    (lambda: ocp.MultipleShooting(N=10, integrator="rk", steps=10 ** 9), r"steps = 1000000000: "),
+    (lambda: ocp.MultipleShooting(N=10, constraint_points=10 ** 9), r"constraint_points = 1000000000: "),
+], ids=["collocation-N", "degree", "N-zero", "shooting-N", "rk-steps", "constraint-points"])
+def test_a_transcription_too_large_is_refused_before_it_is_built(make, message):
+    with pytest.raises(mn.MechnetError, match=message):
+        make()
+
+
+@pytest.mark.parametrize("method, message", [
+    (lambda: ocp.Collocation(N=200_000), r"N = 200000: collocation of model 'double_integrator' at degree 3 would "
+                                         r"have 1.8e\+06 decision variables"),
+    (lambda: ocp.MultipleShooting(N=400_000), r"N = 400000: multiple shooting of model 'double_integrator' would "
+                                              r"hold 2e\+06 variables"),
+], ids=["collocation", "shooting"])
+def test_a_transcription_too_large_for_its_model_is_refused_when_solved(prob, method, message):
+    """Sized from the model's states, algebraics and inputs before any variable is made (N = 10**9 once ran
+    a minute into a MemoryError)."""
+    import time
+    prob.minimize(prob.integral(prob.var("push.f") ** 2))
+    t0 = time.perf_counter()
+    with pytest.raises(ocp.OcpError, match=message):
+        prob.solve(method())
+    assert time.perf_counter() - t0 < 10

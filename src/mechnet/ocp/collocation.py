@@ -14,8 +14,10 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from .problem import OcpError
+from .problem import MAX_VARIABLES, OcpError
 from .transcription import Transcription
+
+MAX_DEGREE = 9              # CasADi's Radau and Legendre points stop at order 9
 
 
 def coefficients(degree: int, scheme: str):
@@ -60,15 +62,37 @@ class Collocation(Transcription):
         super().__init__(N, controls, hessian)
         from ..core.arguments import whole_number
         self.degree = whole_number(degree, "degree", 1)
-        if scheme not in ("radau", "legendre"):
+        if self.degree > MAX_DEGREE:
+            raise OcpError(f"degree = {self.degree}: collocation points go up to degree {MAX_DEGREE}; for more "
+                           f"accuracy raise N")
+        if self.N * (self.degree + 1) > MAX_VARIABLES:     # at least one variable a point, whatever the model
+            raise OcpError(f"N = {self.N}: {self.N} intervals of {self.degree + 1} points exceed the "
+                           f"{MAX_VARIABLES:.0e} decision variables a transcription may have")
+        if not isinstance(scheme, str) or scheme not in ("radau", "legendre"):
             raise OcpError(f"scheme = {scheme!r}: choose 'radau' or 'legendre'")
         if controls == "linear" and self.degree < 2:
             raise OcpError("controls='linear' needs degree >= 2: with one collocation point per interval the "
                            "control is seen at one time only, and its slope is left free")
         self.scheme = scheme
 
+    def __getstate__(self):
+        """The settings only: what `prepare` and `transcribe` build (the last problem's CasADi functions)
+        every solve builds again."""
+        return {k: self.__dict__[k] for k in ("N", "controls", "hessian", "degree", "scheme")}
+
+    def variables(self, prob) -> int:
+        """The number of decision variables (before they are made): states and algebraics at every point
+        and at the end, an input at every node."""
+        dae = prob.dae
+        return (self.N * (self.degree + 1) + 1) * (dae.x.numel() + dae.z.numel()) + (self.N + 1) * dae.u.numel()
+
     def transcribe(self, prob, guess):
         dae = prob.dae
+        size = self.variables(prob)
+        if size > MAX_VARIABLES:
+            raise OcpError(f"N = {self.N}: collocation of model {prob.cm.name!r} at degree {self.degree} would have "
+                           f"{size:.3g} decision variables, more than {MAX_VARIABLES:.0e} (about 3 kB each while "
+                           f"the NLP is built); lower N")
         self._size = self.N * self.degree * dae.n_instructions()
         N, d = self.N, self.degree
         tau, C, D, W = coefficients(d, self.scheme)

@@ -36,6 +36,25 @@ def _bound(value, default, what) -> float:
     return number
 
 
+# The largest transcription posed: about 3 kB of memory a variable while the NLP is built (a double integrator
+# at N = 20000: 180 k variables, 0.5 GB and 150 s), so 10**6 is 3 GB and many minutes; beyond it a mistyped N
+# would run for an hour into a MemoryError
+MAX_VARIABLES = 10 ** 6
+
+
+def _mapping(value, what) -> dict:
+    """{dotted name: value} as given to `start=` or `params=` (None: none), or an OcpError naming the argument."""
+    if value is None:
+        return {}
+    if not hasattr(value, "items"):
+        raise OcpError(f"Problem({what}=...) takes a mapping {{'dotted.name': value}}, got {type(value).__name__} "
+                       f"{value!r:.60}")
+    bad = [k for k in value if not isinstance(k, str)]
+    if bad:
+        raise OcpError(f"Problem({what}=...): keys are dotted names such as 'mass.s', got {bad[0]!r}")
+    return dict(value)
+
+
 @dataclass(frozen=True)
 class Constraint:
     expr: ca.SX            # scalar
@@ -88,12 +107,12 @@ class Problem:
                 raise OcpError(f"t_final = {value:g} s must be > 0")
             self.t_bounds = (value, value)
         self.start = dict(self.dae.starts)
-        for name, value in (start or {}).items():
+        for name, value in _mapping(start, "start").items():
             if name not in self.dae.observed_names:
                 raise unknown_name(name, self.dae.observed_names, "start value for")
             self.start[name] = finite_number(value, f"start value {name}", OcpError)
         self.p_value = np.array(self.dae.p_value, dtype=float)
-        for name, value in (params or {}).items():
+        for name, value in _mapping(params, "params").items():
             self.p_value[self._parameter(name)] = finite_number(value, f"params[{name!r}]", OcpError)
         if params:      # each value's check and the requirements between parameters, as in simulate
             self.p_value = _resolve_params(self.dae, dict(params), "Problem")
@@ -133,6 +152,7 @@ class Problem:
 
     def _placeholder(self, kind, expr):
         expr = self._scalar(expr, f"{kind}(...)")
+        self._known(expr, f"{kind}(...)")
         if ca.depends_on(expr, self._boundary_vector()):
             raise OcpError(f"{kind}(...) takes an expression along the path (of prob.var(...) and prob.time), "
                            f"not one holding at_start/at_end/integral")
@@ -179,7 +199,10 @@ class Problem:
         if not isinstance(constraint, (ca.SX, ca.DM)):
             raise OcpError(f"subject_to takes a comparison of the problem's expressions (prob.var, at_end, ...; "
                            f"CasADi SX) such as prob.var('x') <= 1, got {type(constraint).__name__}")
+        if label is not None and not isinstance(label, str):
+            raise OcpError(f"subject_to(..., label={label!r}): the label is the text reports show, a string")
         constraint = ca.SX(constraint)
+        self._known(constraint, "subject_to(...)")
         for k in range(constraint.numel()):
             item = constraint[k]
             text = label or str(item)
@@ -197,6 +220,9 @@ class Problem:
         """The objective: a scalar of at_start/at_end/integral placeholders, t_final and free parameters
         (Mayer and Lagrange terms)."""
         objective = self._scalar(objective, "minimize(...)")
+        if not all(np.isfinite(_constants(objective))):
+            raise OcpError(f"minimize({objective}): holds a NaN or infinite number")
+        self._known(objective, "minimize(...)")
         if ca.depends_on(objective, self._path_vector()):
             raise OcpError("minimize(...): the objective holds a path quantity (prob.var or prob.time); wrap it "
                            "in prob.integral(...) or prob.at_end(...)")
@@ -242,6 +268,20 @@ class Problem:
             raise OcpError(f"{what}: the expression must be a scalar, got shape {expr.shape}")
         return expr
 
+    def _symbols(self) -> list:
+        """Every symbol the problem made: t_final, time, the path quantities, the boundary placeholders."""
+        return [self.t_final, self.time, *self._vars.values(), *self._boundary_syms.values()]
+
+    def _known(self, expr, what) -> None:
+        """Refuse a CasADi symbol the problem did not make (`ca.SX.sym("x")`): no transcription can give it
+        a value, and IPOPT would fail on it later with CasADi's "free variables" message."""
+        known = self._symbols()
+        foreign = [v for v in ca.symvar(ca.SX(expr)) if not any(ca.is_equal(v, k) for k in known)]
+        if foreign:
+            names = ", ".join(str(v) for v in foreign[:3])
+            raise OcpError(f"{what}: {names} is not one of the problem's quantities; write expressions of "
+                           f"prob.var('name'), prob.time, prob.t_final and at_start/at_end/integral")
+
     def _pair(self, lower, upper, what):
         lo, hi = _bound(lower, -math.inf, f"{what} lower"), _bound(upper, math.inf, f"{what} upper")
         if lo > hi:
@@ -249,6 +289,8 @@ class Problem:
         return lo, hi
 
     def _parameter(self, name):
+        if not isinstance(name, str):
+            raise OcpError(f"parameter names are dotted strings such as 'spring.c', got {name!r}")
         if name not in self.dae.p_names:
             folded = name in self.dae.info.get("folded_parameters", ())
             if folded:
@@ -268,6 +310,42 @@ class Problem:
 
     def _boundary_vector(self):
         return ca.vertcat(*self._boundary_syms.values()) if self._boundary_syms else ca.SX(0, 1)
+
+    # ---- pickling ------------------------------------------------------------------------------
+
+    def __getstate__(self):
+        """CasADi's symbols do not pickle one by one, and pickled apart they would lose who is who (the
+        `prob.var("x")` in a constraint is the one in the objective). So every expression the problem
+        holds is packed into one CasADi Function of the problem's symbols, which pickles, and unpacked by
+        calling it on fresh symbols of the same names."""
+        state = dict(self.__dict__)
+        symbols = self._symbols()
+        expressions = ([e for _, e in self._boundary.values()] + [c.expr for c in self.path + self.point]
+                       + ([self.objective] if self.objective is not None else []))
+        state["_packed"] = (ca.Function("problem", symbols, expressions), [s.name() for s in symbols])
+        # the DAE pickles with its compiled model (as a sweep sends it to its workers), not alone
+        for key in ("dae", "t_final", "time", "_vars", "_boundary", "_boundary_syms", "path", "point", "objective"):
+            del state[key]
+        bounds = [[(c.lower, c.upper, c.label) for c in constraints] for constraints in (self.path, self.point)]
+        state["_keys"] = (list(self._vars), [(n, kind) for n, (kind, _) in self._boundary.items()], *bounds,
+                          self.objective is not None)
+        return state
+
+    def __setstate__(self, state):
+        (function, names), (var_names, boundary, path, point, has_objective) = state.pop("_packed"), state.pop("_keys")
+        self.__dict__.update(state)
+        self.dae = self.cm.dae
+        symbols = [ca.SX.sym(n) for n in names]
+        out = function.call(symbols) if function.n_out() else []
+        self.t_final, self.time = symbols[:2]
+        self._vars = dict(zip(var_names, symbols[2:2 + len(var_names)]))
+        self._boundary_syms = {n: s for (n, _), s in zip(boundary, symbols[2 + len(var_names):])}
+        self._boundary = {n: (kind, e) for (n, kind), e in zip(boundary, out)}
+        out = out[len(boundary):]
+        self.path = [Constraint(e, *rest) for e, rest in zip(out, path)]
+        out = out[len(path):]
+        self.point = [Constraint(e, *rest) for e, rest in zip(out, point)]
+        self.objective = out[len(point)] if has_objective else None
 
     def solve(self, method, *, guess=None, ipopt: dict | None = None, progress=None, verbose=False):
         """Transcribe with `method` (`Collocation(...)`, `MultipleShooting(...)`) and solve with IPOPT.

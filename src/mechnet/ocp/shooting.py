@@ -13,7 +13,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from .problem import OcpError
+from .problem import MAX_VARIABLES, OcpError
 from .transcription import Transcription
 
 INTEGRATORS = ("cvodes", "idas", "rk")
@@ -32,7 +32,7 @@ class MultipleShooting(Transcription):
         super().__init__(N, controls, hessian)
         from ..core.arguments import whole_number
         from ..core.declarations import finite_number
-        if integrator not in INTEGRATORS:
+        if not isinstance(integrator, str) or integrator not in INTEGRATORS:
             raise OcpError(f"integrator = {integrator!r}: choose one of {', '.join(INTEGRATORS)}")
         self.integrator = integrator
         self.rtol = finite_number(rtol, "rtol", OcpError)
@@ -41,6 +41,26 @@ class MultipleShooting(Transcription):
             raise OcpError(f"rtol = {rtol!r}, atol = {atol!r}: the integrator's tolerances must be > 0")
         self.steps = whole_number(steps, "steps (Runge-Kutta steps per interval)", 1)
         self.constraint_points = whole_number(constraint_points, "constraint_points (per interval)", 1)
+        # at least one variable a node and one row a constraint point, whatever the model; the
+        # Runge-Kutta steps are unrolled and their states kept for the adjoint sensitivities
+        for what, count in (("N", self.N), ("constraint_points", self.N * self.constraint_points),
+                            ("steps", self.N * self.steps if integrator == "rk" else 0)):
+            if count > MAX_VARIABLES:
+                raise OcpError(f"{what} = {getattr(self, what)}: {count:.3g} points over N = {self.N} intervals "
+                               f"exceed the {MAX_VARIABLES:.0e} a transcription may have")
+
+    def __getstate__(self):
+        """The settings only: what `prepare` and `transcribe` build (the last problem's CasADi functions)
+        every solve builds again."""
+        return {k: self.__dict__[k] for k in ("N", "controls", "hessian", "integrator", "rtol", "atol", "steps",
+                                              "constraint_points")}
+
+    def variables(self, prob) -> int:
+        """The size of the transcription (before it is made): states, algebraics and inputs at every node,
+        and the states at every constraint point or Runge-Kutta step inside the intervals."""
+        dae = prob.dae
+        inner = max(self.constraint_points, self.steps if self.integrator == "rk" else 1)
+        return (self.N + 1) * (dae.x.numel() + dae.z.numel() + dae.u.numel()) + self.N * inner * dae.x.numel()
 
     def _interval(self, prob):
         """F(x0, z0, p = [u_a; u_b; p; d; t0; h; T]) -> xf, zf, qf over one interval (time normalised).
@@ -76,6 +96,11 @@ class MultipleShooting(Transcription):
 
     def transcribe(self, prob, guess):
         dae = prob.dae
+        size = self.variables(prob)
+        if size > MAX_VARIABLES:
+            raise OcpError(f"N = {self.N}: multiple shooting of model {prob.cm.name!r} would hold {size:.3g} "
+                           f"variables and points, more than {MAX_VARIABLES:.0e}; lower N (or steps, "
+                           f"constraint_points)")
         N = self.N
         nx_, nz = dae.x.numel(), dae.z.numel()
         F = self._interval(prob)
