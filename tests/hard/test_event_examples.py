@@ -339,14 +339,14 @@ def test_newtons_cradle_makes_only_its_cascades_events(cr, cr_default):
     assert all(len(order) == 4 for order in cascades.values())
 
 
-GRID_DEFECT = ("issue 33: on a 401-point output grid at the defaults the cradle loses half its energy and its "
-               "balls pass through each other. The hanging balls' stops chatter at round-off and rest by "
-               "accumulation (hit0 at 2.281 s, hit1 at 2.342 s); the return cascade at 2.788 s then fires hit3, hit0, hit2, hit0, hit1, "
-               "hit3, hit0 and rests hit0 with ball0 and ball1 both at −1.2436 rad/s where ball0 alone should leave "
-               "at −2.4873: the swing energy drops to 0.500015·E0 (a plastic jump with e = 1). At 3.291 s the next "
-               "cascade ends with ball1 leaving at +1.2436 rad/s into ball2 at rest, hit1 approaching and not "
-               "fired again: ball1 passes through ball2 by up to 0.199 rad (3.54 s). 101, 201, 801, 1001 points "
-               "and the default grid keep the energy to 5e-5·E0 and the gaps to −5e-12 rad")
+GRID_DEFECT = ("issue 33: on a 401-point output grid at the defaults the cradle loses half its energy and its balls "
+               "pass through each other. The hanging balls' stops chatter at round-off and rest by accumulation "
+               "(hit0 at 2.281 s, hit1 at 2.342 s); the return cascade at 2.788 s then fires hit3, hit0, hit2, hit0,"
+               " hit1, hit3, hit0 and rests hit0 with ball0 and ball1 both at −1.2436 rad/s where ball0 alone should"
+               " leave at −2.4873: the swing energy drops to 0.500015·E0 (a plastic jump with e = 1). At 3.291 s the"
+               " next cascade ends with ball1 leaving at +1.2436 rad/s into ball2 at rest, hit1 approaching and not "
+               "fired again: ball1 passes through ball2 by up to 0.199 rad (3.54 s). 101, 201, 801, 1001 points and "
+               "the default grid keep the energy to 5e-5·E0 and the gaps to −5e-12 rad")
 
 
 @pytest.mark.parametrize("n_out", [101, pytest.param(401, marks=pytest.mark.xfail(strict=True, reason=GRID_DEFECT)),
