@@ -6,6 +6,7 @@ from .core.errors import (ConnectError, FrozenModelError, HigherIndexError, Init
                           IntegrationError, InputError, MechnetError, NameConflictError, OcpError, ParameterError,
                           SceneError, StructureError, UnbalancedModelError, UnknownNameError)
 from .components.switched import smooth_friction
+from .interrupts import Interrupted
 from .kinematics import kinematics
 from .simulate import IntegrationWarning, Result
 from .sweep import Sweep, sweep
@@ -15,7 +16,8 @@ __version__ = "0.1.0"
 
 __all__ = ["Across", "CompileOptions", "CompiledModel", "Component", "ConnectError", "Connector", "Eq",
            "FrozenModelError", "HigherIndexError", "Impulse", "InitializationError", "Input", "InputError",
-           "IntegrationError", "IntegrationWarning", "MechnetError", "Mode", "Model", "NameConflictError", "OcpError",
+           "Interrupted", "IntegrationError", "IntegrationWarning", "MechnetError", "Mode", "Model",
+           "NameConflictError", "OcpError",
            "Output",
            "Param", "ParameterError", "Port", "Result", "SceneError", "State", "StructureError", "Through",
            "UnbalancedModelError", "UnknownNameError", "Var", "When", "compile", "der", "every_parameter_tunable",

@@ -11,12 +11,14 @@ before it ran (start values that cannot be met) with its message, in one table.
 """
 from __future__ import annotations
 
+import csv
 import itertools
 import os
 import pickle
+import signal
 import time
 import warnings
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from multiprocessing import get_context
 
@@ -25,7 +27,10 @@ import numpy as np
 from .core.arguments import mapping, name_list, whole_number
 from .core.declarations import finite_number
 from .core.errors import MechnetError
+from .interrupts import Interrupted
 from .simulate import IntegrationWarning
+
+POLL_SECONDS = 0.1      # how often the parent looks at its workers' runs (Ctrl-C is noticed at once regardless)
 
 
 @dataclass(frozen=True)
@@ -61,6 +66,9 @@ def cases_of(params=None, starts=None, inputs=None, combine: str = "grid") -> li
             if isinstance(options, (str, bytes)) or not hasattr(options, "__len__"):
                 raise MechnetError(f"sweep({'starts' if kind == 'start' else kind}=...): {name!r} takes a list "
                                    f"of values to run, got {options!r:.60}")
+            if len(options) == 0:
+                raise MechnetError(f"sweep({'starts' if kind == 'start' else kind}=...): {name!r} has no values, "
+                                   f"so the sweep would run nothing; give it at least one")
             axes.append((kind, name, list(options)))
     if combine not in ("grid", "zip"):
         raise MechnetError(f"sweep(combine={combine!r}): 'grid' (every combination) or 'zip' (the i-th values "
@@ -85,6 +93,12 @@ def cases_of(params=None, starts=None, inputs=None, combine: str = "grid") -> li
 
 
 def _explicit(cases) -> list[Case]:
+    if isinstance(cases, (str, bytes, dict)) or not hasattr(cases, "__iter__"):
+        raise MechnetError(f"sweep(cases={cases!r:.60}) takes a list of cases, each a mapping such as "
+                           f"{{'params': {{...}}, 'start': {{...}}}}")
+    cases = list(cases)
+    if not cases:
+        raise MechnetError("sweep(cases=[]): no cases, so the sweep would run nothing; give at least one")
     out = []
     for k, case in enumerate(cases):
         case = mapping(case, f"sweep(cases=[...])[{k}]")
@@ -138,7 +152,10 @@ _WORKER_MODEL = None
 
 
 def _worker_start(packed: bytes):
+    """A worker process: the model, and Ctrl-C left to the parent (a terminal sends it to the whole
+    process group; the parent stops the workers itself: `_in_workers`)."""
     global _WORKER_MODEL
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     _WORKER_MODEL = pickle.loads(packed)
 
 
@@ -193,12 +210,15 @@ class Sweep:
         return pd.DataFrame(self.rows())
 
     def to_csv(self, path) -> None:
+        """The table as CSV (RFC 4180 quoting, the csv module's: a text holding a comma, a quote or a line
+        break is quoted, its quotes doubled); floats with every digit (repr)."""
         rows = self.rows()
         keys = list(dict.fromkeys(k for row in rows for k in row))
-        with open(path, "w", encoding="utf-8") as f:
-            f.write(",".join(keys) + "\n")
+        with open(path, "w", encoding="utf-8", newline="") as f:
+            writer = csv.writer(f, lineterminator="\n")
+            writer.writerow(keys)
             for row in rows:
-                f.write(",".join(_csv_cell(row.get(k, "")) for k in keys) + "\n")
+                writer.writerow([_csv_cell(row.get(k, "")) for k in keys])
 
     def to_markdown(self) -> str:
         rows = self.rows()
@@ -227,8 +247,7 @@ def _text(value):
 
 
 def _csv_cell(value):
-    text = repr(value) if isinstance(value, float) else str(value)
-    return f'"{text}"' if ("," in text or '"' in text or "\n" in text) else text
+    return repr(float(value)) if isinstance(value, float) else str(value)      # (np.float64's repr names its type)
 
 
 def sweep(cm, *, t_end: float, params=None, starts=None, inputs=None, cases=None, combine: str = "grid",
@@ -248,6 +267,10 @@ def sweep(cm, *, t_end: float, params=None, starts=None, inputs=None, cases=None
         raise MechnetError(f"sweep(t_end={t_end:g}) must be > 0")
     if at is not None:
         at = finite_number(at, "sweep(at=...)", MechnetError)
+        t_start = simulate.get("t_start") or 0.0
+        if not t_start <= at <= t_end:
+            raise MechnetError(f"sweep(at={at:g}) lies outside the runs, from t_start = {t_start:g} to t_end = "
+                               f"{t_end:g} s: the outputs would be read where no run has values")
     if combine not in ("grid", "zip"):
         raise MechnetError(f"sweep(combine={combine!r}): 'grid' (every combination) or 'zip' (the i-th values "
                            f"together)")
@@ -264,16 +287,108 @@ def sweep(cm, *, t_end: float, params=None, starts=None, inputs=None, cases=None
         raise MechnetError(f"sweep(outputs=...): {unknown[0]!r} is not a name of model {cm.name!r}")
     settings = {"t_end": t_end, "simulate": dict(simulate), "repeat": whole_number(repeat, "sweep(repeat=...)", 1)}
     if client is not None:
-        shared = client.scatter(cm, broadcast=True)
-        futures = client.map(_dask_run, todo, settings=settings, cm=shared, pure=False)
-        runs = client.gather(futures)
+        _check_client(client)
+        runs = _on_dask(cm, todo, settings, client, names, at)
     else:
         n = min(os.cpu_count() or 1, len(todo)) if workers is None else whole_number(workers, "sweep(workers=...)", 0)
         if n <= 1:
-            runs = [run_case(cm, case, settings) for case in todo]
+            runs = _here(cm, todo, settings, names, at)
         else:
-            packed = pickle.dumps(cm)
-            with ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"), initializer=_worker_start,
-                                     initargs=(packed,)) as pool:
-                runs = list(pool.map(_worker_run, todo, [settings] * len(todo)))
+            _check_picklable(todo, settings)
+            runs = _in_workers(cm, todo, settings, n, names, at)
     return Sweep(list(runs), names, at)
+
+
+def _here(cm, todo, settings, names, at) -> list[Run]:
+    """The cases one after the other in this process; Ctrl-C raises `Interrupted` with the finished ones."""
+    runs = []
+    try:
+        for case in todo:
+            runs.append(run_case(cm, case, settings))
+    except KeyboardInterrupt:
+        raise Interrupted("sweep", Sweep(runs, names, at)) from None
+    return runs
+
+
+def _in_workers(cm, todo, settings, n, names, at) -> list[Run]:
+    """The cases in n worker processes (spawned: no state of this process is copied). The parent waits
+    POLL_SECONDS at a time, so Ctrl-C reaches it at once (a wait without timeout noticed it only after
+    12-19 s): it cancels the cases not started, ends the workers and raises `Interrupted` with a Sweep of
+    the finished runs. The workers ignore SIGINT (`_worker_start`)."""
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"), initializer=_worker_start,
+                               initargs=(pickle.dumps(cm),))
+    futures = []
+    try:
+        futures = [pool.submit(_worker_run, case, settings) for case in todo]
+        pending = set(futures)
+        while pending:
+            _, pending = wait(pending, timeout=POLL_SECONDS, return_when=FIRST_COMPLETED)
+        runs = [f.result() for f in futures]
+    except KeyboardInterrupt:
+        finished = [f.result() for f in futures if f.done() and not f.cancelled() and f.exception() is None]
+        _stop(pool)
+        raise Interrupted("sweep", Sweep(finished, names, at)) from None
+    except BaseException:
+        _stop(pool)
+        raise
+    pool.shutdown()
+    return runs
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Cancel the cases not started and end the worker processes now (not after their runs)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
+    for process in processes:
+        process.join(timeout=5.0)
+
+
+def _on_dask(cm, todo, settings, client, names, at) -> list[Run]:
+    """The cases on a Dask cluster; Ctrl-C cancels those not finished and raises `Interrupted` with a
+    Sweep of the finished ones."""
+    shared = client.scatter(cm, broadcast=True)
+    futures = client.map(_dask_run, todo, settings=settings, cm=shared, pure=False)
+    try:
+        while not all(f.done() for f in futures):
+            time.sleep(POLL_SECONDS)
+        return client.gather(futures)
+    except KeyboardInterrupt:
+        done = [f for f in futures if f.done() and f.status == "finished"]
+        client.cancel([f for f in futures if not f.done()])
+        finished = client.gather(done) if done else []
+        raise Interrupted("sweep", Sweep(list(finished), names, at)) from None
+
+
+def _check_client(client) -> None:
+    """A Dask client that can take the runs: anything else, or a closed one, named."""
+    if not all(hasattr(client, a) for a in ("scatter", "map", "gather", "cancel")):
+        raise MechnetError(f"sweep(client={client!r:.60}) takes a dask.distributed.Client (or workers=n for "
+                           f"local processes)")
+    status = getattr(client, "status", "running")
+    if status in ("closing", "closed", "failed"):
+        raise MechnetError(f"sweep(client=...): the Dask client is {status}; pass an open one "
+                           f"(dask.distributed.Client(...)) or workers=n for local processes")
+
+
+def _check_picklable(todo, settings) -> None:
+    """Worker processes receive each case pickled: a value that cannot be (a lambda, a local function) is
+    refused by name before any worker starts."""
+    for name, value in settings["simulate"].items():
+        _picklable(value, f"sweep({name}=...)")
+    for case in todo:
+        for kind in ("params", "start", "inputs", "settings"):
+            for name, value in getattr(case, kind).items():
+                _picklable(value, f"sweep(cases=[...])[{case.index}]['settings'][{name!r}]" if kind == "settings"
+                           else f"sweep({'starts' if kind == 'start' else kind}=...): {name!r} (case {case.index})")
+
+
+def _picklable(value, what: str) -> None:
+    try:
+        pickle.dumps(value)
+    except Exception as exc:                   # noqa: BLE001 - whatever pickle refuses
+        raise MechnetError(f"{what}: {value!r:.60} cannot be sent to worker processes (pickle: {exc}); define "
+                           f"it at module level (not a lambda or a local function), give a Table or (times, "
+                           f"values), or run the sweep here with workers=0") from None

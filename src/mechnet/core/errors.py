@@ -50,24 +50,27 @@ class InitializationError(MechnetError):
 
 
 class IntegrationError(MechnetError):
-    """The integrator failed; `result` holds what was computed up to the failure."""
+    """The integrator failed; `result` holds what was computed up to the failure. `reason`: "failed"
+    (the solver, an event accumulation, ...) or "interrupted" (Ctrl-C: `mechnet.interrupts`)."""
 
-    def __init__(self, message: str, *, t: float, step: float, worst: str, solver_message: str, result=None):
+    def __init__(self, message: str, *, t: float, step: float, worst: str, solver_message: str, result=None,
+                 reason: str = "failed"):
         super().__init__(message)
         self.t = t
         self.step = step
         self.worst = worst
         self.solver_message = solver_message
         self.result = result
+        self.reason = reason
 
     def __reduce__(self):
         """Pickled (a failed run coming back from a worker process) with its details, without the
         result it belongs to (that result carries it as `failure`)."""
-        return (_integration_error, (str(self), self.t, self.step, self.worst, self.solver_message))
+        return (_integration_error, (str(self), self.t, self.step, self.worst, self.solver_message, self.reason))
 
 
-def _integration_error(message, t, step, worst, solver_message):
-    return IntegrationError(message, t=t, step=step, worst=worst, solver_message=solver_message)
+def _integration_error(message, t, step, worst, solver_message, reason="failed"):
+    return IntegrationError(message, t=t, step=step, worst=worst, solver_message=solver_message, reason=reason)
 
 
 class SceneError(MechnetError):

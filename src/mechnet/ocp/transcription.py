@@ -16,6 +16,7 @@ import numpy as np
 
 from ..caches import BUILD_LOCK
 from ..core.errors import InitializationError
+from ..interrupts import Interrupted, interrupted, watched
 from ..solver_output import captured
 from .problem import OcpError, Problem
 from .progress import IterationBar
@@ -247,8 +248,11 @@ class Transcription:
 
     # ---- solving --------------------------------------------------------------------------------
 
+    @watched("optimal control solve")
     def solve(self, prob: Problem, guess, ipopt: dict, progress, verbose):
-        from .solution import Solution
+        """Solve with IPOPT. Ctrl-C stops IPOPT at its next iteration (`IterationBar`) and raises
+        `mechnet.Interrupted` carrying a Solution at the last iterate (`stats["status"] == "interrupted"`,
+        not a success; None when IPOPT had not finished an iteration)."""
         from ..core.arguments import mapping
         ipopt = mapping(ipopt, "solve(ipopt=...)")
         setup = _time.perf_counter()
@@ -265,19 +269,40 @@ class Transcription:
                 opts["iteration_callback"] = bar
                 solver = ca.nlpsol("ocp", "ipopt", {"x": w, "f": layout["objective"], "g": g}, opts)
             except (RuntimeError, TypeError, ValueError) as exc:
+                if interrupted():
+                    raise Interrupted("optimal control solve") from None
                 raise OcpError(f"solve(ipopt={ipopt!r:.120}): IPOPT refused the options: "
                                f"{str(exc).strip().splitlines()[-1]}") from None
             read = ca.Function("trajectories", [w], [layout[k] for k in layout["read"]])
             final_time = ca.Function("t_final", [w], [layout["T"]])
         started = _time.perf_counter()
         setup = started - setup
+        out, messages = None, []
         try:
             with captured() as messages:
                 out = solver(x0=nlp.w0, lbx=nlp.lbw, ubx=nlp.ubw, lbg=nlp.lbg, ubg=nlp.ubg)
+        except BaseException:                 # a KeyboardInterrupt, or a failure CasADi made of one
+            if not interrupted():
+                raise
         finally:
             bar.close()
-        stats = solver.stats()
-        wall = _time.perf_counter() - started
+        if interrupted():
+            solution = None
+            if bar.last is not None:          # the iterate of the last iteration IPOPT finished
+                with BUILD_LOCK:
+                    f_g = ca.Function("f_g", [w], [layout["objective"], g])
+                f, g_last = f_g(bar.last)
+                stats = {"success": False, "return_status": "interrupted", "iter_count": bar.iterations}
+                iterate = {"x": bar.last, "g": g_last, "f": f}
+                solution = self._solution(prob, nlp, layout, opts, read, final_time, iterate, stats, messages,
+                                          _time.perf_counter() - started, setup)
+            raise Interrupted("optimal control solve", solution) from None
+        return self._solution(prob, nlp, layout, opts, read, final_time, out, solver.stats(), messages,
+                              _time.perf_counter() - started, setup)
+
+    def _solution(self, prob, nlp, layout, opts, read, final_time, out, stats, messages, wall, setup):
+        """The Solution at IPOPT's answer `out` (nlpsol's outputs x, g, f; `stats` its statistics)."""
+        from .solution import Solution
         w_opt = np.asarray(out["x"]).ravel()
         g_opt = np.asarray(out["g"]).ravel()
         violation = np.maximum(np.asarray(nlp.lbg) - g_opt, g_opt - np.asarray(nlp.ubg))

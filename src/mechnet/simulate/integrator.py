@@ -1,6 +1,8 @@
 """`simulate`: check the arguments, initialise, run the simulation loop (`run.py`), assemble the `Result`."""
 from __future__ import annotations
 
+import os
+import sys
 import time as _time
 import warnings
 from contextvars import ContextVar
@@ -13,6 +15,7 @@ from ..core.errors import InitializationError, IntegrationError, MechnetError, P
 from ..core.arguments import flag, mapping, whole_number
 from ..core.declarations import finite_number, not_a_number
 from ..core.requirements import check_values
+from ..interrupts import Interrupted, interrupted, watched
 from ..solver_output import captured
 from .branch import selections, state_names
 from .events import breakpoints, output_grid
@@ -34,6 +37,7 @@ class IntegrationWarning(UserWarning):
     """Issued when simulate() returns a partial result after a solver failure."""
 
 
+@watched("simulate")
 def simulate(cm, t_end: float, *, t_start: float | None = None, rtol: float = 1e-6, atol: float = 1e-8,
              method: str = "auto", n_out: int | None = None, t_out=None, params: dict | None = None,
              inputs: dict | None = None, start: dict | None = None, guess: dict | None = None,
@@ -48,7 +52,8 @@ def simulate(cm, t_end: float, *, t_start: float | None = None, rtol: float = 1e
     a DAE (`res.stats["method"]`, `res.stats["method_reason"]`). `steady_state=True` starts from
     der(x) = 0 (every state; fixed start values then over-specify). `progress=None` shows a bar when a
     long grid (≥ 1000 points) takes more than a second. A solver failure returns the partial result with
-    `result.failure` set (and a warning); it does not raise.
+    `result.failure` set (and a warning); it does not raise. Ctrl-C raises `mechnet.Interrupted` (a
+    KeyboardInterrupt) at once, the partial result in its `.result` (`failure.reason == "interrupted"`).
     `continue_from=res` continues a run: it starts at res's final time from its
     final states (fixed) with every other final value as a guess, so dependent
     coordinates stay on their branch; the components' own start values do not apply.
@@ -120,12 +125,30 @@ def simulate(cm, t_end: float, *, t_start: float | None = None, rtol: float = 1e
     grid = output_grid(grid, events)
     run = Run(cm, dae, choice, rtol, atol, max_steps, plan, p, d, init)
     with captured() as messages:             # SUNDIALS's text stays with this run (solver_output.py)
-        run.integrate(grid, events, progress)
+        try:
+            run.integrate(grid, events, progress)
+        except BaseException:                # a KeyboardInterrupt, or a failure CasADi made of one
+            if not interrupted():
+                raise
+    if interrupted():
+        run.failure = interruption(run)
+        raise Interrupted("simulate", assemble(cm, dae, run, wall, messages, init, plan, p)
+                          if len(run.rows) else None) from None
     sink = TEMPLATE.get()
     if sink is not None:                       # `prepared.py` asked what this run was
         sink.update(dae=dae, grid=grid, plan=plan, d=d, init=init, choice=choice, events=events, run=run,
                     settings=(t_start, rtol, atol, max_steps, steady_state))
     return assemble(cm, dae, run, wall, messages, init, plan, p)
+
+
+def interruption(run) -> IntegrationError:
+    """The failure of a run stopped by Ctrl-C where its rows end (`mechnet.interrupts`)."""
+    run.rows.count = sum(len(b.t) for b in run.rows.blocks)      # (the interrupt may have hit `Rows.add`)
+    t = run.rows.last.t if len(run.rows) else float("nan")
+    run.stats["interrupted_at"] = t
+    return IntegrationError(f"interrupted (Ctrl-C) at t = {t:.6g} s; the result holds the solution up to there",
+                            t=t, step=run.stats.get("hlast", float("nan")), worst="-",
+                            solver_message="interrupted", reason="interrupted")
 
 
 def _check_continuation(res, t_start, start):
@@ -166,7 +189,7 @@ def start_values(dae, start: dict | None, guess: dict | None, continue_from=None
 def assemble(cm, dae, run, wall, messages, init, plan, p) -> Result:
     """The Result of a finished run (`run`: its rows, events, failure and statistics)."""
     stats = run.stats
-    if run.failure is not None:
+    if run.failure is not None and getattr(run.failure, "reason", "") != "interrupted":
         _end_at_last_finite_row(run, plan, p)
     stats["wall_time"] = _time.perf_counter() - wall
     stats["plugin"] = run.choice.plugin
@@ -208,10 +231,22 @@ def assemble(cm, dae, run, wall, messages, init, plan, p) -> Result:
                              "residual": init.residual})
     if run.failure is not None:
         run.failure.result = result
+        if getattr(run.failure, "reason", "") == "interrupted":
+            return result                     # (raised with it: no warning)
         said = f"; SUNDIALS said {messages[-1]!r} (all {len(messages)} messages in res.stats['solver_messages'])" \
             if messages else ""
-        warnings.warn(str(run.failure) + said, IntegrationWarning, stacklevel=4)
+        warnings.warn(str(run.failure) + said, IntegrationWarning, stacklevel=_callers_level())
     return result
+
+
+def _callers_level() -> int:
+    """The `stacklevel` of a warning issued by this function's caller that names the first line outside
+    mechnet: the user's call, whichever entry (cm.simulate, a prepared run) and wrappers led there."""
+    package = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
+    frame, level = sys._getframe(1), 1
+    while frame.f_back is not None and frame.f_code.co_filename.startswith(package):
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def _end_at_last_finite_row(run, plan, p):

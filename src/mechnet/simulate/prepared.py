@@ -21,8 +21,10 @@ import numpy as np
 
 from ..core.arguments import mapping
 from ..core.errors import MechnetError
+from ..interrupts import Interrupted, interrupted, watched
 from ..solver_output import captured
-from .integrator import TEMPLATE, _check_requirements, _resolve_params, assemble, simulate, start_values
+from .integrator import (TEMPLATE, _check_requirements, _resolve_params, assemble, interruption, simulate,
+                         start_values)
 from .initialize import initialize, ready_to_integrate
 from .rows import Rows
 from .run import STIFF_MIN_STEPS, STIFF_SHARE
@@ -59,8 +61,10 @@ class PreparedRun:
     def __getstate__(self):                 # in another process the first call decides again
         return {"cm": self.cm, "t_end": self.t_end, "settings": self.settings, "_plain": None, "_decided": False}
 
+    @watched("prepared run")
     def __call__(self, params: dict | None = None, start: dict | None = None, guess: dict | None = None):
-        """The Result of `cm.simulate(t_end, params=params, start=start, guess=guess, **settings)`."""
+        """The Result of `cm.simulate(t_end, params=params, start=start, guess=guess, **settings)`. Ctrl-C
+        raises `mechnet.Interrupted` with the partial result, as `cm.simulate` does."""
         if self._plain is not None:
             result = self._plain.run(params, start, guess)
             if result is not None:
@@ -156,18 +160,26 @@ class PlainRun:
         with captured() as messages:
             try:
                 stats, out = call(self.integrators.get_real(self.points), xs, zs, pvec)
-            except SolverFailure:
-                return None
-        if self.choice.fallback is not None:
+            except SolverFailure as failure:
+                if not interrupted():
+                    return None
+                stats, out = failure.stats, failure.outputs     # Ctrl-C: the output times reached
+        stopped = interrupted()
+        if self.choice.fallback is not None and not stopped:
             steps, failures = int(stats.get("nsteps", 0)), int(stats.get("nncfails", 0))
             if steps >= STIFF_MIN_STEPS and failures >= STIFF_SHARE * steps:
                 return None                      # stiff under these parameters: the run loop switches
         xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn + ox
         zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn + oz) if self.zn.size \
             else np.zeros((xf.shape[0], 0))
+        reached = np.isfinite(xf).all(axis=1) & np.isfinite(zf).all(axis=1)
+        n = reached.size if reached.all() else int(np.argmin(reached))
         outcome = _Outcome(self, d, stats, h)
         outcome.rows.add_row(t0, init.x, init.z, dae, d)
-        outcome.rows.add(self.grid[1:], xf, zf, dae, d)
+        outcome.rows.add(self.grid[1:][:n], xf[:n], zf[:n], dae, d)
+        if stopped:
+            outcome.failure = interruption(outcome)
+            raise Interrupted("prepared run", assemble(self.cm, dae, outcome, wall, messages, init, plan, p))
         return assemble(self.cm, dae, outcome, wall, messages, init, plan, p)
 
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..caches import BUILD_LOCK
 from ..core.errors import IntegrationError, MechnetError
+from ..interrupts import Interrupted, interrupted
 from ..solver_output import terminal
 from .branch import Verdict, state_names
 from .change_points import ChangePoints
@@ -230,15 +231,32 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
             stats, out = self._call(t0, h, get, xs, zs, self.pvec(t0, h))
         except RuntimeError as exc:
             return False, str(exc)
+        except Interrupted as stop:              # keep the output times the call reached before Ctrl-C
+            if isinstance(stop.result, dict):
+                self._store(points, keep, stop.result, ox, oz)
+            raise Interrupted("simulate") from None
+        self._store(points, keep, out, ox, oz)
+        self._count(stats, h)
+        return True, ""
+
+    def _store(self, points, keep, out, ox, oz):
+        """Record the outputs `out` of a call over `points` (`_attempt`) and move the state to its end; of
+        an interrupted call, only the output times it reached (the columns after are NaN)."""
         xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn + ox
         zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn + oz) if self.zn.size \
             else np.zeros((xf.shape[0], 0))
+        ts = points[1:]
+        reached = np.isfinite(xf).all(axis=1) & np.isfinite(zf).all(axis=1)
+        if not reached.all():
+            n = int(np.argmin(reached))
+            xf, zf, ts = xf[:n], zf[:n], ts[:n]
+            keep = None if keep is None else keep[:n]
+            if n == 0:
+                return
         self.x, self.z = xf[-1].copy(), zf[-1].copy()
         if keep is not None:
-            xf, zf = xf[keep], zf[keep]
-        self.rows.add(points[1:] if keep is None else points[1:][keep], xf, zf, self.dae, self.d)
-        self._count(stats, h)
-        return True, ""
+            xf, zf, ts = xf[keep], zf[keep], ts[keep]
+        self.rows.add(ts, xf, zf, self.dae, self.d)
 
     def _count(self, s, h):
         """Add one successful call's solver statistics (`s`: F.stats(), over a call of length h)."""
@@ -256,16 +274,29 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         spring-damper on 1 g: 2.7e6 failures in 7.4e6 steps and 30 s, where BDF takes 372 steps). So
         Adams runs on a step budget of ADAMS_PROBE_STEPS per output interval, and a failed Adams call
         (other than on a budget a monitored piece set itself) is decided by `_after_adams_failed`; a
-        successful one whose iteration failed on STIFF_SHARE of its steps hands the rest to BDF."""
+        successful one whose iteration failed on STIFF_SHARE of its steps hands the rest to BDF.
+
+        Ctrl-C fails the call (CasADi swallows the KeyboardInterrupt, the solver reports its right-hand side
+        failed): `Interrupted` is raised instead of any retry, and before the next call when the interrupt
+        came between calls (`mechnet.interrupts`)."""
+        if interrupted():
+            raise Interrupted("simulate")
         if self._pending is not None:            # a switch takes effect with the first call that uses it
             self._record_switch(t0)
         try:
             s, out = call(get(), xs, zs, p)
         except RuntimeError as exc:
+            if interrupted():                    # (with the outputs the call reached: `_attempt`)
+                raise Interrupted("simulate", getattr(exc, "outputs", None)) from None
             code = solver_message(str(exc))
             if self.choice.fallback is None or (budgeted and code.endswith("TOO_MUCH_WORK")):
                 raise
-            return self._after_adams_failed(code, t0, get, xs, zs, p)
+            try:
+                return self._after_adams_failed(code, t0, get, xs, zs, p)
+            except RuntimeError as again:
+                if interrupted():
+                    raise Interrupted("simulate", getattr(again, "outputs", None)) from None
+                raise
         if self.choice.fallback is not None:
             steps, failures = int(s.get("nsteps", 0)), int(s.get("nncfails", 0))
             if steps >= STIFF_MIN_STEPS and failures >= STIFF_SHARE * steps:
@@ -290,6 +321,8 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
         try:
             done = call(get(), xs, zs, p)
         except RuntimeError as again:
+            if interrupted():
+                raise Interrupted("simulate", getattr(again, "outputs", None)) from None
             if not solver_message(str(again)).endswith("TOO_MUCH_WORK"):
                 self._switch("cvodes-bdf", None, f"Adams failed ({code}), and BDF after it")
                 self._record_switch(t0)

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..caches import BUILD_LOCK
 from ..core.errors import MechnetError
+from ..interrupts import interrupted
 
 METHODS = ("auto", "idas", "cvodes-bdf", "cvodes-adams")
 FIRST_TIME_SHARE = 0.01          # of the first output interval: IDAS's initial-value search scale
@@ -213,7 +214,7 @@ def call(F, xs, zs, p) -> tuple[dict, dict]:
     try:
         return _on_numpy(F, xs, zs, p)
     except RuntimeError as exc:
-        if "LINESEARCH" not in str(exc).upper() or not np.size(zs):
+        if "LINESEARCH" not in str(exc).upper() or not np.size(zs) or interrupted():
             raise
         return _on_numpy(F, xs, np.asarray(zs) * (1 + 1e-6) + 1e-9, p)
 
