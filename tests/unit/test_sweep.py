@@ -88,6 +88,13 @@ def test_failures_keep_their_partial_result_and_reason():
     (dict(cases=[{"settings": {"t_end": 1.0}}]), "'t_end' is set by the sweep itself"),
     (dict(params={"spring.c": [1.0]}, at="end"), "at"),
     (dict(params={"spring.c": [1.0]}, t_end=-1.0), "must be > 0"),
+    (dict(cases=5), r"cases=5\) takes a list of cases"),
+    (dict(cases=[]), r"cases=\[\]\): no cases"),
+    (dict(params={"spring.c": []}), "'spring.c' has no values"),
+    (dict(params={"spring.c": [1.0]}, starts={"j1.phi": []}, combine="zip"), "'j1.phi' has no values"),
+    (dict(params={"spring.c": [1.0]}, at=1.5), r"at=1.5\) lies outside the runs"),
+    (dict(params={"spring.c": [1.0]}, at=-0.5), r"at=-0.5\) lies outside the runs"),
+    (dict(params={"spring.c": [1.0]}, client=3), r"client=3\) takes a dask.distributed.Client"),
 ])
 def test_bad_arguments_are_refused_by_name(kwargs, match):
     kwargs = {"t_end": 1.0, **kwargs}
@@ -109,3 +116,41 @@ def test_a_dask_cluster_gives_the_same_numbers_as_sequential_runs():
     assert "must be >= 0" in there.rows()[-1]["reason"]
     for a, b in zip(here.rows()[:49], there.rows()[:49]):
         assert a["j1.phi"] == b["j1.phi"]
+
+
+def test_an_input_worker_processes_cannot_receive_is_refused_by_name():
+    """Worker processes receive each case pickled: a lambda is refused, naming the input, before any worker
+    starts (here, with workers=0, it runs)."""
+    m = mn.Model("driven")
+    inertia = m.add(rot.Inertia(name="j1", J=J, phi_start=0.0, w_start=0.0))
+    torque = m.add(rot.Torque(name="tq"))
+    m.connect(torque.flange, inertia.flange_a)
+    cm = m.compile()
+    with pytest.raises(mn.MechnetError, match=r"sweep\(inputs=...\): 'tq.tau' \(case 0\).*cannot be sent to worker"):
+        mn.sweep(cm, t_end=1.0, inputs={"tq.tau": [lambda t: 1.0, 2.0]}, workers=2)
+    here = mn.sweep(cm, t_end=1.0, inputs={"tq.tau": [lambda t: 1.0, 2.0]}, workers=0, outputs=["j1.phi"])
+    assert [r["j1.phi"] for r in here.rows()] == pytest.approx([5.0, 10.0])
+
+
+def test_a_closed_dask_client_is_refused():
+    distributed = pytest.importorskip("distributed", reason="dask.distributed (extra 'test') runs sweeps on clusters")
+    client = distributed.Client(processes=False, dashboard_address=None)
+    client.close()
+    with pytest.raises(mn.MechnetError, match="the Dask client is closed"):
+        mn.sweep(oscillator(), t_end=1.0, params={"spring.c": [1.0]}, client=client)
+
+
+def test_to_csv_quotes_text_as_the_csv_module_reads_it(tmp_path):
+    """A text holding quotes and commas (the method 'a"b, c' and the error naming it) is quoted with its
+    quotes doubled (RFC 4180): the csv module reads back the table's own text, floats bit for bit."""
+    import csv
+    out = mn.sweep(oscillator(), cases=[{"params": {"spring.c": 100.0}},
+                                        {"params": {"spring.c": 100.0}, "settings": {"method": 'a"b, c'}}],
+                   workers=0, **SETTINGS)
+    path = tmp_path / "sweep.csv"
+    out.to_csv(path)
+    with open(path, newline="", encoding="utf-8") as f:
+        back = list(csv.DictReader(f))
+    rows = out.rows()
+    assert back[1]["method"] == 'a"b, c' and back[1]["reason"] == rows[1]["reason"] and '"' in rows[1]["reason"]
+    assert float(back[0]["j1.phi"]) == rows[0]["j1.phi"]
