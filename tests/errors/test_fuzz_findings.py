@@ -35,3 +35,40 @@ def test_w_rel_a_start_is_still_turned_into_frame_b():
     joint = mb.Spherical(name="ball", Q_start=[0, 0, 0, 1], w_rel_a_start=[1, 2, 3])
     start = next(v.start for v in joint.variables() if v.local_name == "w_rel")
     assert start == pytest.approx([-1, -2, 3])
+
+
+@pytest.mark.parametrize("times, values, culprit", [
+    ([0, 1, 2, 3], [[1, 2], [3, 4]], "values"), ([[0, 1], [2, 3]], [0, 1, 2, 3], "times"), ({0: 1}, [1], "times")])
+def test_a_table_takes_one_sequence_not_a_matrix(times, values, culprit):
+    from mechnet.components.signals import Table
+    with pytest.raises(mn.ParameterError, match=f"Table: {culprit}"):
+        Table(times, values)
+
+
+def test_a_table_given_as_columns_is_still_one_sequence():
+    from mechnet.components.signals import Table
+    assert float(Table([[0.0], [1.0]], [[1.0], [3.0]])(0.5)) == pytest.approx(2.0)
+
+
+def test_an_empty_model_is_refused_at_compile():
+    with pytest.raises(mn.StructureError, match="model 'm' has no components"):
+        mn.Model("m").compile()
+
+
+def test_an_unknown_member_of_a_model_is_named_and_still_an_attribute_error():
+    m = mn.Model("m")
+    with pytest.raises(mn.UnknownNameError, match="'nothing'"):
+        m.nothing
+    assert not hasattr(m, "nothing") and getattr(m, "nothing", 1) == 1
+
+
+def test_a_misspelled_simulate_setting_is_named_with_the_closest_one():
+    from models import oscillator
+    with pytest.raises(mn.MechnetError, match=r"rtoll \(did you mean rtol\?\)"):
+        oscillator().compile().simulate(1.0, rtoll=1e-6)
+
+
+def test_steady_state_over_fixed_starts_says_where_the_rates_come_from():
+    from models import oscillator
+    with pytest.raises(mn.InitializationError, match="steady_state=True"):
+        oscillator().compile().simulate(1.0, steady_state=True)

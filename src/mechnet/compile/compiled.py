@@ -1,11 +1,14 @@
 """CompiledModel: the user's handle on the pipeline's artifacts and the simulator."""
 from __future__ import annotations
 
+import difflib
+import inspect
 import pickle
 
 import casadi as ca
 
 from ..caches import BUILD_LOCK, PerThread, built
+from ..core.errors import MechnetError
 from .artifacts import SemiExplicitDAE
 from .index_reduction import grouped_differentiations
 
@@ -154,6 +157,7 @@ class CompiledModel:
         not raise.
         """
         from ..simulate.integrator import simulate
+        _known_settings(simulate, kwargs, "simulate")
         return simulate(self, t_end, **kwargs)
 
     def prepare(self, t_end: float, **settings):
@@ -242,6 +246,17 @@ class CompiledModel:
         """Steady state (or the inputs that hold one); see `mechnet.linear.trim`."""
         from ..linear import trim
         return trim(self, **kw)
+
+
+def _known_settings(function, settings: dict, what: str) -> None:
+    """A misspelled setting (`rtoll=`) as a MechnetError naming it and the closest valid one, not Python's
+    TypeError from deep inside (fuzz, issue 32)."""
+    valid = [p.name for p in inspect.signature(function).parameters.values() if p.kind == p.KEYWORD_ONLY]
+    unknown = [k for k in settings if k not in valid]
+    if unknown:
+        hints = [f"{k} (did you mean {close[0]}?)" if (close := difflib.get_close_matches(k, valid, n=1)) else k
+                 for k in unknown]
+        raise MechnetError(f"{what}(): unknown setting(s) {', '.join(hints)}; valid settings are {', '.join(valid)}")
 
 
 def _component(model, path):

@@ -172,6 +172,19 @@ def table_knots(times, values, mode: str = "linear"):
     return t[first], y[first], y[last]
 
 
+def _sequence(given, what: str) -> np.ndarray:
+    """A table's times or values as one sequence: a list, a row or a column. A matrix is refused, not
+    flattened ([[1, 2], [3, 4]] became four values, issue 32)."""
+    try:
+        arr = np.asarray(given, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError(f"Table: {what} must be a sequence of numbers, got {given!r:.60}") from None
+    if arr.ndim > 2 or (arr.ndim == 2 and min(arr.shape) > 1):
+        raise ParameterError(f"Table: {what} must be one sequence (a list, a row or a column), got an array of "
+                             f"shape {arr.shape}; a table is one signal")
+    return arr.ravel()
+
+
 class Table(Signal):
     """A table of (time, value) knots in one of Modelica's modes; held constant outside it.
 
@@ -191,8 +204,7 @@ class Table(Signal):
             entries = np.ravel(np.array(given, dtype=object))
             if not_a_number(given) or any(not_a_number(v) or v is None for v in entries):
                 raise ParameterError(f"Table: {what} must be numbers, got {given!r:.60}")
-        t = np.asarray(times, dtype=float).ravel()
-        y = np.asarray(values, dtype=float).ravel()
+        t, y = (_sequence(given, what) for what, given in (("times", times), ("values", values)))
         if t.size < 2 or t.size != y.size:
             raise ParameterError(f"Table: needs at least two knots and as many values as times "
                                  f"(got {t.size} times, {y.size} values)")

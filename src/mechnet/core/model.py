@@ -12,7 +12,12 @@ from typing import Union
 import networkx as nx
 
 from .component import Component, Connector, _check_name
-from .errors import ConnectError, FrozenModelError, NameConflictError
+from .errors import ConnectError, FrozenModelError, NameConflictError, StructureError, UnknownNameError
+
+
+class NoSuchMember(UnknownNameError, AttributeError):
+    """`model.j9` for a name the model does not hold: a mechnet error naming it, and still an AttributeError
+    (hasattr and getattr with a default keep working)."""
 
 
 def _type_label(connector) -> str:
@@ -116,7 +121,7 @@ class Model:
         items = self.__dict__.get("_items", {})
         if key in items:
             return items[key]
-        raise AttributeError(f"model {self.__dict__.get('name')!r} has no component or exposed connector {key!r}")
+        raise NoSuchMember(f"model {self.__dict__.get('name')!r} has no component or exposed connector {key!r}")
 
     # ---- queries ----------------------------------------------------------------------------
 
@@ -171,6 +176,8 @@ class Model:
     def compile(self, options=None):
         """Run the pipeline (flatten, simplify, analyze, emit); returns a CompiledModel."""
         from ..compile.pipeline import compile_model
+        if not self._items:     # compiled to 0 states, which simulated a clock: a forgotten add() (fuzz, issue 32)
+            raise StructureError(f"model {self.name!r} has no components: add() them before compile()")
         return compile_model(self, options)
 
     def __repr__(self):

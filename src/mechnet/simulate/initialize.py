@@ -369,9 +369,11 @@ def _too_many(conditions, unmatched, graph, dae):
         unknowns = sorted(names_w[j] for side, j in part if side == "w")
         lines.append(f"    fixed values {', '.join(fixed)} compete for {', '.join(unknowns)}"
                      + (f" (related by {'; '.join(eqs)})" if eqs else ""))
+    steady = any(c[1] is None and c[0].startswith("der(") for c in conditions)
     raise InitializationError("too many fixed start values: more values are fixed than the model has "
                               "free quantities for them; remove one of each group (or make it a guess "
-                              "with *_guess=):\n" + "\n".join(lines))
+                              "with *_guess=)" + (" — the der(...) = 0 are steady_state=True's, which fixes "
+                                                   "every state's rate" if steady else "") + ":\n" + "\n".join(lines))
 
 
 def solve_algebraic(dae, t: float, x: np.ndarray, z_guess: np.ndarray, u: np.ndarray, p: np.ndarray,
