@@ -37,7 +37,7 @@ class Interrupted(KeyboardInterrupt):
 
 _depth = 0                      # runs active in the main thread (nested: a sweep's, a prepared run's)
 _signalled_at = None            # monotonic time of the interrupt during the active runs, or None
-_previous = None                # the handler that was installed before the outermost run
+_previous = None                # the handler that was installed before the outermost run (kept after it)
 
 
 def _handler(signum, frame):
@@ -62,20 +62,21 @@ def watching():
         return
     if _depth == 0:
         previous = signal.getsignal(signal.SIGINT)
+        if previous is _handler:                 # left behind by an interrupt inside a `finally` below
+            previous = _previous or signal.default_int_handler
         if not callable(previous):
             yield
             return
         _previous, _signalled_at = previous, None
-        signal.signal(signal.SIGINT, _handler)
     _depth += 1
     try:
+        if _depth == 1:
+            signal.signal(signal.SIGINT, _handler)
         yield
     finally:
         _depth -= 1
-        if _depth == 0:
-            if signal.getsignal(signal.SIGINT) is _handler:      # (a handler set during the run stays)
-                signal.signal(signal.SIGINT, _previous)
-            _previous = None
+        if _depth == 0 and signal.getsignal(signal.SIGINT) is _handler:   # (a handler set during the run stays)
+            signal.signal(signal.SIGINT, _previous)
 
 
 def interrupted() -> bool:
