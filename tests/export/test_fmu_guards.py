@@ -29,17 +29,20 @@ def _log3(env, status, category, message):
     MESSAGES.append(message.decode() if isinstance(message, bytes) else str(message))
 
 
+# FMPy's native proxy formats the wrapper's "%s" messages for Python, calling the logger of the callbacks
+# last given to it (other tests give it theirs, which die with them): each FMI 2.0 instance here gets fresh
+# callbacks registered just before it is made, kept for the whole session
+_KEPT = []
+
+
 def _callbacks2():
     from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
     from fmpy.logging import addLoggerProxy
     callbacks = fmi2CallbackFunctions()
     callbacks.logger = fmi2CallbackLoggerTYPE(_log2)
-    addLoggerProxy(ctypes.byref(callbacks))       # formats the wrapper's "%s" message for Python
+    addLoggerProxy(ctypes.byref(callbacks))
+    _KEPT.append(callbacks)
     return callbacks
-
-
-# kept for the whole session: the native proxy points at the Python logger of the last callbacks given it
-_CALLBACKS2 = _callbacks2()
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +68,7 @@ class _Instance:
         if fmi == 2:
             from fmpy.fmi2 import FMU2Model
             self.fmu = FMU2Model(**kw)
-            self.fmu.instantiate(callbacks=_CALLBACKS2)
+            self.fmu.instantiate(callbacks=_callbacks2())
             self.fmu.setupExperiment(startTime=0.0)
             self.fmu.enterInitializationMode()
             self.fmu.exitInitializationMode()
