@@ -15,7 +15,7 @@ from typing import Optional
 
 import numpy as np
 
-from .core.declarations import finite_number
+from .core.declarations import finite_number, not_a_number
 from .core.errors import ParameterError
 
 
@@ -42,13 +42,28 @@ def inertia_problem(I, rtol: float = 1e-9) -> Optional[str]:
 
 def transfer(I_cm, m: float, d) -> np.ndarray:
     """Parallel-axis theorem: the tensor about a point at offset `d` from the mass centre."""
-    return np.asarray(I_cm, dtype=float).reshape(3, 3) + _steiner(m, d)
+    return _array(I_cm, (3, 3), "transfer: I_cm") + _steiner(m, d, "transfer")
 
 
-def _steiner(m: float, d) -> np.ndarray:
+def _steiner(m: float, d, what: str = "inertia") -> np.ndarray:
     """m (|d|² 1 − d dᵀ): what a point mass m at offset d adds to a tensor (the parallel-axis term)."""
-    d = np.asarray(d, dtype=float).reshape(3)
+    m = finite_number(m, f"{what}: m")
+    d = _array(d, (3,), f"{what}: d (offset)")
     return m * (d @ d * np.eye(3) - np.outer(d, d))
+
+
+def _array(value, shape: tuple, what: str) -> np.ndarray:
+    """`value` as finite numbers of `shape` (a tensor 3x3 or 9, a vector 3), else a ParameterError naming
+    it: numpy's reshape error, or eigh failing on a NaN, named nothing (fuzz, issue 32)."""
+    try:
+        if not_a_number(value) or any(not_a_number(v) for v in np.ravel(np.array(value, dtype=object))):
+            raise TypeError
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{what} = {value!r:.60} is not an array of numbers") from None
+    if arr.size != int(np.prod(shape)) or not np.isfinite(arr).all():
+        raise ParameterError(f"{what} = {arr.tolist()} must be {' x '.join(map(str, shape))} finite numbers")
+    return arr.reshape(shape)
 
 
 def about_point(I_cm, m: float, r_cm, point) -> np.ndarray:
@@ -59,7 +74,8 @@ def about_point(I_cm, m: float, r_cm, point) -> np.ndarray:
 def about_mass_centre(I_point, m: float, r_cm, point) -> np.ndarray:
     """The inverse of `about_point`: a CAD tool or a data sheet often gives the tensor about a
     part's origin, but `Body(I=...)` wants it about the mass centre."""
-    return np.asarray(I_point, dtype=float).reshape(3, 3) - _steiner(m, np.subtract(point, r_cm))
+    offset = np.subtract(_array(point, (3,), "about_mass_centre: point"), _array(r_cm, (3,), "about_mass_centre: r_cm"))
+    return _array(I_point, (3, 3), "about_mass_centre: I_point") - _steiner(m, offset, "about_mass_centre")
 
 
 def rotate(I, R) -> np.ndarray:
@@ -83,12 +99,16 @@ def composite(parts) -> tuple[float, np.ndarray, np.ndarray]:
     if not parts:
         raise ParameterError("composite: parts is empty; a body needs at least one part")
     masses, centres, tensors = [], [], []
-    for k, (m, r_cm, I_cm, *R) in enumerate(parts):
+    for k, part in enumerate(parts):
+        if isinstance(part, (str, bytes)) or not hasattr(part, "__len__") or len(part) not in (3, 4):
+            raise ParameterError(f"composite: parts[{k}] = {part!r:.60} must be (m, r_cm, I_cm) or "
+                                 f"(m, r_cm, I_cm, R)")
+        m, r_cm, I_cm, *R = part
         _positive("composite", **{f"parts[{k}].m": m})
         R = _rotation(R[0] if R else np.eye(3), f"composite: parts[{k}].R")
         masses.append(float(m))
-        centres.append(np.asarray(r_cm, dtype=float).reshape(3))
-        tensors.append(R @ np.asarray(I_cm, dtype=float).reshape(3, 3) @ R.T)
+        centres.append(_array(r_cm, (3,), f"composite: parts[{k}].r_cm"))
+        tensors.append(R @ _array(I_cm, (3, 3), f"composite: parts[{k}].I_cm") @ R.T)
     m_total = sum(masses)
     r_total = sum(m * r for m, r in zip(masses, centres)) / m_total
     I_total = sum(transfer(I, m, r - r_total) for m, r, I in zip(masses, centres, tensors))
@@ -97,7 +117,7 @@ def composite(parts) -> tuple[float, np.ndarray, np.ndarray]:
 
 def principal_axes(I) -> tuple[np.ndarray, np.ndarray]:
     """Principal moments (ascending) and the axes as columns of a rotation matrix."""
-    moments, axes = np.linalg.eigh(np.asarray(I, dtype=float).reshape(3, 3))
+    moments, axes = np.linalg.eigh(_array(I, (3, 3), "principal_axes: I"))
     if np.linalg.det(axes) < 0:
         axes[:, 2] = -axes[:, 2]
     return moments, axes

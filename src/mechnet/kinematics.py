@@ -10,7 +10,8 @@ import numpy as np
 
 from .caches import builds_symbols
 from .core.declarations import finite_number
-from .core.errors import InputError, SceneError, UnknownNameError
+from .core.arguments import mapping
+from .core.errors import InputError, MechnetError, SceneError, UnknownNameError
 
 
 @builds_symbols
@@ -22,6 +23,11 @@ def kinematics(cm, q: dict | None = None, qd: dict | None = None, params: dict |
     Q), qd = (v_rel, w_rel); Universal: (phi_a, phi_b) ...); unspecified joints take their start values
     (or 0; a quaternion without one is the identity). `params` sets tunable parameters.
     """
+    if not hasattr(cm, "stages") or "flat" not in getattr(cm, "stages", {}):
+        raise MechnetError(f"kinematics() takes a compiled model (model.compile()), got {type(cm).__name__} "
+                           f"{cm!r:.40}")
+    q, qd, params = (mapping(v, f"kinematics({w}=...)", InputError) for v, w in ((q, "q"), (qd, "qd"),
+                                                                                 (params, "params")))
     flat = cm.stages["flat"]
     tree = flat.multibody
     if tree is None:

@@ -21,7 +21,7 @@ import casadi as ca
 import numpy as np
 
 from .caches import builds_symbols
-from .core.arguments import mapping
+from .core.arguments import mapping, name_list, whole_number
 from .core.declarations import finite_number
 from .core.errors import InitializationError, InputError, MechnetError, UnknownNameError
 from .simulate.initialize import solve_algebraic
@@ -259,7 +259,8 @@ def trim(cm, *, inputs: Optional[dict] = None, fixed: Optional[dict] = None, fre
     inputs, fixed = mapping(inputs, "trim(inputs=...)"), mapping(fixed, "trim(fixed=...)")
     guess = mapping(guess, "trim(guess=...)")
     t = finite_number(t, "trim(t=...)", InputError)
-    free_inputs = tuple(free_inputs)
+    max_iter = whole_number(max_iter, "trim(max_iter=...)", 1, InputError)
+    free_inputs = tuple(name_list(free_inputs, "trim(free_inputs=...)", InputError))
     nx_, nz = dae.x.numel(), dae.z.numel()
     for name in free_inputs:
         if name not in dae.u_names:

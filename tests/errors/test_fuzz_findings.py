@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 import mechnet as mn
+import mechnet.inertia  # noqa: F401 - mn.inertia
 from mechnet.components import multibody as mb
 from mechnet.components import rotational as rot
 
@@ -72,3 +74,40 @@ def test_steady_state_over_fixed_starts_says_where_the_rates_come_from():
     from models import oscillator
     with pytest.raises(mn.InitializationError, match="steady_state=True"):
         oscillator().compile().simulate(1.0, steady_state=True)
+
+
+def test_kinematics_names_a_list_or_a_non_model():
+    from models import oscillator
+    m = mn.Model("p")
+    world = m.add(mb.World(name="world"))
+    rev = m.add(mb.Revolute(name="rev", phi_start=0.0, w_start=0.0))
+    bob = m.add(mb.Body(name="bob", m=1.0, r_cm=[1, 0, 0]))
+    m.connect(world.frame_b, rev.frame_a)
+    m.connect(rev.frame_b, bob.frame_a)
+    cm = m.compile()
+    with pytest.raises(mn.InputError, match=r"kinematics\(q=...\) takes a mapping"):
+        mn.kinematics(cm, q=[1, 2, 3])
+    with pytest.raises(mn.MechnetError, match="takes a compiled model"):
+        mn.kinematics(oscillator())
+
+
+def test_linearize_and_trim_name_their_wrong_settings():
+    from models import oscillator
+    cm = oscillator().compile()
+    with pytest.raises(mn.MechnetError, match="x0"):
+        cm.linearize(x0={"j1.phi": 0.0})
+    with pytest.raises(mn.InputError, match="max_iter"):
+        cm.trim(max_iter=0)
+    with pytest.raises(mn.UnknownNameError, match="did you mean ode"):
+        cm.functions()["odee"]
+
+
+@pytest.mark.parametrize("call, culprit", [
+    (lambda: mn.inertia.transfer(np.eye(3), 1.0, [1, 0]), "d"),
+    (lambda: mn.inertia.principal_axes(np.full((3, 3), math.nan)), "I"),
+    (lambda: mn.inertia.composite("ab"), r"parts\[0\]"),
+    (lambda: mn.inertia.composite([(1.0, [0, 0], np.eye(3))]), "r_cm"),
+])
+def test_inertia_helpers_name_the_wrong_array(call, culprit):
+    with pytest.raises(mn.ParameterError, match=culprit):
+        call()

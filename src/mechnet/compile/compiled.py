@@ -109,7 +109,7 @@ class CompiledModel:
         """The documented contract every export is built from (`mechnet.export.contract`): ode, alg,
         observed, invariants, zero, transition, init, solve_alg, Jacobians, forward, metadata."""
         from ..export import functions
-        return functions(self)
+        return _Functions(functions(self))
 
     def export(self, path, kind: str = "casadi", *, fmi: int = 2, overwrite: bool = False):
         """Write the model as CasADi files, generated C or an FMU (`mechnet.export.export`)."""
@@ -240,12 +240,25 @@ class CompiledModel:
     def linearize(self, x_op=None, u_op=None, **kw):
         """Linear model (A, B, C, D) about an operating point; see `mechnet.linear.linearize`."""
         from ..linear import linearize
+        _known_settings(linearize, kw, "linearize")
         return linearize(self, x_op, u_op, **kw)
 
     def trim(self, **kw):
         """Steady state (or the inputs that hold one); see `mechnet.linear.trim`."""
         from ..linear import trim
+        _known_settings(trim, kw, "trim")
         return trim(self, **kw)
+
+
+class _Functions(dict):
+    """cm.functions(): a plain dict whose missing key is an UnknownNameError listing the functions there are
+    (a bare KeyError('odee') said nothing of them)."""
+
+    def __missing__(self, key):
+        from ..core.errors import UnknownNameError
+        close = difflib.get_close_matches(str(key), list(self), n=1)
+        raise UnknownNameError(f"cm.functions() has no function {key!r}" + (f"; did you mean {close[0]}?" if close
+                                                                             else "") + f"; it has {', '.join(self)}")
 
 
 def _known_settings(function, settings: dict, what: str) -> None:
