@@ -267,7 +267,7 @@ def sweep(cm, *, t_end: float, params=None, starts=None, inputs=None, cases=None
         raise MechnetError(f"sweep(t_end={t_end:g}) must be > 0")
     if at is not None:
         at = finite_number(at, "sweep(at=...)", MechnetError)
-        t_start = simulate.get("t_start") or 0.0
+        t_start = finite_number(simulate.get("t_start") or 0.0, "sweep(t_start=...)", MechnetError)
         if not t_start <= at <= t_end:
             raise MechnetError(f"sweep(at={at:g}) lies outside the runs, from t_start = {t_start:g} to t_end = "
                                f"{t_end:g} s: the outputs would be read where no run has values")
@@ -312,9 +312,9 @@ def _here(cm, todo, settings, names, at) -> list[Run]:
 
 def _in_workers(cm, todo, settings, n, names, at) -> list[Run]:
     """The cases in n worker processes (spawned: no state of this process is copied). The parent waits
-    POLL_SECONDS at a time, so Ctrl-C reaches it at once (a wait without timeout noticed it only after
-    12-19 s): it cancels the cases not started, ends the workers and raises `Interrupted` with a Sweep of
-    the finished runs. The workers ignore SIGINT (`_worker_start`)."""
+    POLL_SECONDS at a time and, on Ctrl-C, cancels the cases not started, ends the workers and raises
+    `Interrupted` with a Sweep of the finished runs (the pool's own exit waited for the running cases:
+    Ctrl-C took 12-19 s and lost every finished run). The workers ignore SIGINT (`_worker_start`)."""
     pool = ProcessPoolExecutor(max_workers=n, mp_context=get_context("spawn"), initializer=_worker_start,
                                initargs=(pickle.dumps(cm),))
     futures = []

@@ -172,8 +172,8 @@ class PlainRun:
         xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn + ox
         zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn + oz) if self.zn.size \
             else np.zeros((xf.shape[0], 0))
-        reached = np.isfinite(xf).all(axis=1) & np.isfinite(zf).all(axis=1)
-        n = reached.size if reached.all() else int(np.argmin(reached))
+        reached = np.isfinite(xf).all(axis=1) & np.isfinite(zf).all(axis=1) if stopped else np.ones(1, dtype=bool)
+        n = xf.shape[0] if reached.all() else int(np.argmin(reached))
         outcome = _Outcome(self, d, stats, h)
         outcome.rows.add_row(t0, init.x, init.z, dae, d)
         outcome.rows.add(self.grid[1:][:n], xf[:n], zf[:n], dae, d)

@@ -233,22 +233,22 @@ class Run(StateEvents, Reselection, ChangePoints, MonitoredPieces):
             return False, str(exc)
         except Interrupted as stop:              # keep the output times the call reached before Ctrl-C
             if isinstance(stop.result, dict):
-                self._store(points, keep, stop.result, ox, oz)
+                self._store(points, keep, stop.result, ox, oz, reached=True)
             raise Interrupted("simulate") from None
         self._store(points, keep, out, ox, oz)
         self._count(stats, h)
         return True, ""
 
-    def _store(self, points, keep, out, ox, oz):
-        """Record the outputs `out` of a call over `points` (`_attempt`) and move the state to its end; of
-        an interrupted call, only the output times it reached (the columns after are NaN)."""
+    def _store(self, points, keep, out, ox, oz, reached=False):
+        """Record the outputs `out` of a call over `points` (`_attempt`) and move the state to its end;
+        `reached`: of an interrupted call, only the output times it reached (the columns after are NaN)."""
         xf = np.asarray(out["xf"]).reshape(self.xn.size, -1).T * self.xn + ox
         zf = (np.asarray(out["zf"]).reshape(self.zn.size, -1).T * self.zn + oz) if self.zn.size \
             else np.zeros((xf.shape[0], 0))
         ts = points[1:]
-        reached = np.isfinite(xf).all(axis=1) & np.isfinite(zf).all(axis=1)
-        if not reached.all():
-            n = int(np.argmin(reached))
+        finite = np.isfinite(xf).all(axis=1) & np.isfinite(zf).all(axis=1) if reached else None
+        if reached and not finite.all():
+            n = int(np.argmin(finite))
             xf, zf, ts = xf[:n], zf[:n], ts[:n]
             keep = None if keep is None else keep[:n]
             if n == 0:
