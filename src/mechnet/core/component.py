@@ -50,7 +50,8 @@ def _collect(cls) -> dict[str, Declaration]:
 
 def _check_name(name, what) -> str:
     if name is None:           # `Inertia(J=1.0)`: said as a mechnet error, not Python's missing-argument TypeError
-        raise ParameterError(f"{what}: name is required (it becomes part of dotted names), e.g. {what}(name=\"j1\", ...)")
+        raise ParameterError(f"{what}: name is required (it becomes part of dotted names), "
+                             f"e.g. {what}(name=\"j1\", ...)")
     if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
         raise ParameterError(f"{what}: name {name!r} must be a Python identifier (it becomes part of dotted names)")
     return name
