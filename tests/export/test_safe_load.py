@@ -211,3 +211,11 @@ def test_load_library_checks_the_library(library, tmp_path):
     _tamper(folder, lambda r: r["files"]["functions"].__setitem__("ode", "a; b"))
     with pytest.raises(ExportError, match=r"'files' must hold"):
         load_library(folder)
+
+
+@pytest.mark.parametrize("path", [None, 3, ["a"]])
+def test_a_path_that_is_no_path_is_refused(path):
+    from mechnet.export import load_library
+    for reader in (load, load_library):
+        with pytest.raises(ExportError, match=r"load\(path=.*give the folder"):
+            reader(path)

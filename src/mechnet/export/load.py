@@ -1,6 +1,7 @@
 """`mechnet.export.load(path)`: an exported model back, without the scene code that built it."""
 from __future__ import annotations
 
+import os
 import sys
 import json
 import struct
@@ -24,6 +25,8 @@ class ExportWarning(UserWarning):
 
 def read_record(path) -> dict:
     """model.json of an export, checked: present, readable, a mapping, and of a format this mechnet reads."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ExportError(f"load(path={path!r:.80}): give the folder cm.export() wrote (a str or pathlib.Path)")
     path = Path(path)
     record_file = path / "model.json"
     if not record_file.is_file():
@@ -237,8 +240,8 @@ def load(path) -> "LoadedModel":
     checks), and each file must match the SHA-256 model.json recorded for it at export. The checks catch
     an edited or mixed-up folder, not a crafted one holding another model's consistent functions and
     record (docs/export.md, "What is trusted")."""
-    path = Path(path)
     record = read_record(path)
+    path = Path(path)
     if "kind" not in record:
         raise ExportError(f"load: {path / 'model.json'} 'kind' is missing (the export kind, 'casadi')")
     if record["kind"] != "casadi":
@@ -271,8 +274,8 @@ def load_library(path) -> dict:
     libraries you trust. The library must be a file inside the folder (no absolute path, `..` or link leading
     out) and, when model.json records its SHA-256, match it (a library rebuilt from the sources does not:
     delete its entry in model.json's "sha256" to load one you built yourself)."""
-    path = Path(path)
     record = read_record(path)
+    path = Path(path)
     if record.get("kind") != "c":
         raise ExportError(f"load_library: {path} is a kind={record.get('kind')!r} export, not kind='c'")
     files = record.get("files")

@@ -93,6 +93,7 @@ def read_format(record, file: Path) -> int:
 def check_record(record: dict, file: Path) -> None:
     """Every entry of a kind="casadi" record `load` reads: types, finite numbers, names that are the model's,
     and parameter values within their declared checks and requirements (ExportError naming the key)."""
+    from .load import check_named
     c = _Checker(file)
     text = lambda v, key: c.of(v, str, key, "a string")                       # noqa: E731
     number = c.number
@@ -115,8 +116,10 @@ def check_record(record: dict, file: Path) -> None:
         for field in ("owner", "doc"):
             if field in v:
                 text(v[field], f"p[{k}][{field!r}]")
-        if v.get("check") is not None:
-            text(v["check"], f"p[{k}]['check']")
+        if v.get("check") is not None and check_named(text(v["check"], f"p[{k}]['check']")) is None:
+            c.fail(f"p[{k}]['check']", f"{v['check']!r} is no parameter check of mechnet (an export names one of "
+                                       f"mechnet.core.declarations, or 'mechnet.module:name'; null for a check of "
+                                       f"the user's own)")
     for key in ("starts", "declared_starts"):
         items = c.entries(record, key, {"name": text, "value": number})
         c.unique([s["name"] for s in items], key, names, "an observed name (model.json 'observed')")
