@@ -155,6 +155,9 @@ def model_data(meta: dict, variables: list, ident: str, n_transitions: int, fmi:
         names[v["vr"]] = v["name"]
     out += (f"static const char *const mn_vr_name[{n_var + 1}] = "
             f"{{{', '.join(_c_string(name) for name in names)}}};\n")
+    states = {v["known"][1]: v["name"] for v in variables if v.get("known", (0, 0))[0] == 1}
+    out += (f"static const char *const mn_x_name[{max(len(meta['x']), 1)}] = "
+            f"{{{', '.join(_c_string(states[k]) for k in range(len(meta['x']))) or '0'}}};\n")
     for name, values in (("kind", kind), ("index", index), ("set", setter), ("set_index", set_index),
                          ("known", known), ("known_index", known_index)):
         out += _c_array("int", f"mn_vr_{name}", values)

@@ -356,8 +356,8 @@ static void refuse_whole(Instance *m, const double *p, const double *u, const do
     changed(m);
 }
 
-/* a NaN or infinite value given for a variable, a time or a state is refused whole: nothing of the call is
- * taken, so the instance keeps the values it had (a NaN input would otherwise reach the Newton iterations) */
+/* a NaN or infinite value given for a variable (vr) or a state (vr NULL) is refused whole: nothing of the call
+ * is taken, so the instance keeps the values it had (a NaN input would otherwise reach the Newton iterations) */
 static int finite_values(Instance *m, const char *what, const uint32_t *vr, const double *value, size_t n) {
     size_t i;
     for (i = 0; i < n; i++) {
@@ -369,8 +369,8 @@ static int finite_values(Instance *m, const char *what, const uint32_t *vr, cons
             logf_(m, ST_ERROR, "logStatusError", "%s: value reference %u = %g is not finite; nothing was set",
                   what, vr[i], value[i]);
         else
-            logf_(m, ST_ERROR, "logStatusError", "%s: value %lu = %g is not finite; nothing was set", what,
-                  (unsigned long)i, value[i]);
+            logf_(m, ST_ERROR, "logStatusError", "%s: state %s (value %lu) = %g is not finite; nothing was set",
+                  what, mn_x_name[i], (unsigned long)i, value[i]);
         return ST_ERROR;
     }
     return ST_OK;
@@ -395,8 +395,8 @@ static int set_real(Instance *m, const uint32_t *vr, size_t n, const double *val
             m->x[mn_vr_known_index[r]] = value[i];      /* a state: as fmi2SetContinuousStates (CasADi's import) */
         }
         else {
-            logf_(m, ST_ERROR, "logStatusError", "variable with value reference %u cannot be set %s", r,
-                  before_init ? "(it is calculated)" : "after initialisation (only inputs, and tunable parameters in "
+            logf_(m, ST_ERROR, "logStatusError", "variable %s (value reference %u) cannot be set %s",
+                  r <= MN_NVAR ? mn_vr_name[r] : "(none)", r, before_init ? "(it is calculated)" : "after initialisation (only inputs, and tunable parameters in "
                   "event mode)");
             if (m->mode == MODE_EVENT) refuse_whole(m, p_before, u_before, x_before);
             else if (i) changed(m);             /* the values before it were taken */
