@@ -343,22 +343,25 @@ def test_an_fmu_refuses_a_broken_tuning_in_event_mode_whole(friction, tmp_path):
         fmu.freeInstance()
 
 
-def test_a_loaded_export_calls_nothing_but_parameter_checks(stops, tmp_path):
+def test_a_loaded_export_calls_nothing_but_parameter_checks(stops, tmp_path, monkeypatch):
     """model.json names each parameter's check; `load` calls only functions marked as parameter checks of
-    modules mechnet has loaded: a file that names another function (here mechnet.cli's main) gets a
-    parameter that must only be finite, and the function is never called."""
+    modules mechnet has loaded: a file that names another function (here mechnet.cli's main) is refused,
+    naming the entry, and the function is never called."""
     import json
 
-    from mechnet.export import load
+    import mechnet.cli
+    from mechnet.export import ExportError, load
+    called = []
+    monkeypatch.setattr(mechnet.cli, "main", lambda *a, **k: called.append(a))
     stops.export(tmp_path / "stops", kind="casadi")
     record = json.loads((tmp_path / "stops" / "model.json").read_text())
-    entry = next(v for v in record["p"] if v["name"] == "stop.e")
+    k, entry = next((k, v) for k, v in enumerate(record["p"]) if v["name"] == "stop.e")
     assert entry["check"] == "mechnet.components.switched:restitution"
     entry["check"] = "mechnet.cli:main"
     (tmp_path / "stops" / "model.json").write_text(json.dumps(record))
-    loaded = load(tmp_path / "stops")
-    declaration, _ = loaded.dae.info["parameter_checks"]["stop.e"]
-    assert declaration is None
+    with pytest.raises(ExportError, match=re.escape(f"p[{k}]['check']")):
+        load(tmp_path / "stops")
+    assert called == []
 
 
 @_FMPY_LEFTOVERS
