@@ -3,6 +3,7 @@ naming its culprit."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -11,6 +12,7 @@ import mechnet as mn
 import mechnet.inertia  # noqa: F401 - mn.inertia
 from mechnet.components import multibody as mb
 from mechnet.components import rotational as rot
+from models import oscillator
 
 
 @pytest.mark.parametrize("make", [lambda: rot.Inertia(J=1.0), lambda: mb.Spherical(), lambda: rot.Speed(w_ref=1.0),
@@ -111,3 +113,41 @@ def test_linearize_and_trim_name_their_wrong_settings():
 def test_inertia_helpers_name_the_wrong_array(call, culprit):
     with pytest.raises(mn.ParameterError, match=culprit):
         call()
+
+
+def test_a_mode_start_outside_its_values_is_refused_naming_it():
+    """A friction element's mode is −1, 0 or +1: a start of 7 names the mode and its values (it ran)."""
+    from models import stick_slip_block
+    cm = stick_slip_block().compile()
+    mode = next(n for n in cm.dae.d_names if n.endswith(".mode"))
+    with pytest.raises(mn.MechnetError, match=re.escape(f"{mode} = 7 is no mode of it; it takes -1, 0, 1")):
+        cm.simulate(0.1, start={mode: 7.0})
+    assert cm.simulate(0.1, n_out=3, start={mode: 0.0}).failure is None
+
+
+def test_settings_by_position_and_per_call_settings_are_named():
+    """`simulate(1.0, 1e-6)` and a prepared run called with `inputs=` say what to do, not Python's TypeError."""
+    cm = oscillator().compile()
+    with pytest.raises(mn.MechnetError, match=r"simulate\(\) takes t_end as its only positional argument; 1e-06"):
+        cm.simulate(1.0, 1e-6)
+    with pytest.raises(mn.MechnetError, match=r"prepare\(\) takes t_end"):
+        cm.prepare(1.0, 1e-6)
+    with pytest.raises(mn.MechnetError, match=r"inputs is fixed when it is prepared"):
+        cm.prepare(1.0)(inputs={"x": 1.0})
+
+
+def test_continuing_another_models_result_is_refused_naming_continue_from():
+    """A result of a model with the same state names and more variables is another model's."""
+    plain = oscillator().compile()
+    other = mn.Model("driven")
+    fixed = other.add(rot.Fixed(name="fixed"))
+    spring = other.add(rot.Spring(name="spring", c=100.0))
+    j1 = other.add(rot.Inertia(name="j1", J=0.1, phi_start=0.5, w_start=0.0))
+    drive = other.add(rot.Torque(name="drive"))
+    other.connect(fixed.flange, spring.flange_a)
+    other.connect(spring.flange_b, j1.flange_a)
+    other.connect(drive.flange, j1.flange_b)
+    res = other.compile().simulate(0.1, n_out=3)
+    assert set(plain.state_names) <= set(res.state_names)
+    with pytest.raises(mn.MechnetError, match="continue_from holds a result of another model"):
+        plain.simulate(0.2, continue_from=res)

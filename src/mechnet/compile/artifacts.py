@@ -75,6 +75,7 @@ class FlatMode:
     symbol: ca.SX
     start: float
     impulse: bool = False        # an Impulse: always 0 between events, the direction a jump acts along
+    values: tuple = None         # the values it can take (`Mode(values=...)`), None: any
 
 
 @dataclass(frozen=True)

@@ -181,7 +181,8 @@ def emit(original: FlatSystem, flat: FlatSystem, aliases: AliasMap, structure: S
             "observed_only": _count_observed_only(value, depends, flat, z_index, original),
             "nominal": nominal, "quaternions": quaternions,
             "zero_at_start": tuple(zc.at_start for zc in flat.zero_crossings), "rest_transition": rests,
-            "impulses": tuple(m.name for m in modes if m.impulse), "start_requirements": requirements}
+            "impulses": tuple(m.name for m in modes if m.impulse), "start_requirements": requirements,
+            "mode_values": {m.name: m.values for m in modes if m.values is not None}}
     return SemiExplicitDAE(
         name=flat.name, t=t, x=x, z=z, u=u, p=p, d=d,
         x_names=x_names, z_names=z_names,

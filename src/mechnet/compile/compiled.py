@@ -116,7 +116,7 @@ class CompiledModel:
         from ..export import export
         return export(self, path, kind, fmi=fmi, overwrite=overwrite)
 
-    def simulate(self, t_end: float, **kwargs):
+    def simulate(self, t_end: float, *positional, **kwargs):
         """Integrate from t = 0 (or `t_start`) to `t_end` (s) and return a `Result`.
 
         Keyword settings (all optional; `mechnet.simulate.integrator.simulate` does the work):
@@ -157,15 +157,17 @@ class CompiledModel:
         not raise.
         """
         from ..simulate.integrator import simulate
+        _only_t_end(positional, "simulate")
         _known_settings(simulate, kwargs, "simulate")
         return simulate(self, t_end, **kwargs)
 
-    def prepare(self, t_end: float, **settings):
+    def prepare(self, t_end: float, *positional, **settings):
         """`simulate(t_end, **settings)` as a function of `params`, `start` and `guess`, for many calls:
         `run = cm.prepare(2.0, n_out=101, rtol=1e-8)`, then `run(params={...})`. After the first call, a
         run that is one integrator call skips simulate's fixed cost; any other runs `simulate` in full
         (`run.plain` says which; `simulate/prepared.py`)."""
         from ..simulate.prepared import PreparedRun
+        _only_t_end(positional, "prepare")
         return PreparedRun(self, t_end, settings)
 
     def summary(self) -> str:
@@ -270,6 +272,15 @@ def _known_settings(function, settings: dict, what: str) -> None:
         hints = [f"{k} (did you mean {close[0]}?)" if (close := difflib.get_close_matches(k, valid, n=1)) else k
                  for k in unknown]
         raise MechnetError(f"{what}(): unknown setting(s) {', '.join(hints)}; valid settings are {', '.join(valid)}")
+
+
+def _only_t_end(positional: tuple, what: str) -> None:
+    """Settings given by position (`simulate(1.0, 1e-6)`): which setting a number meant cannot be guessed,
+    so it is refused naming the call, rather than as Python's TypeError about positional arguments."""
+    if positional:
+        given = ", ".join(repr(v) for v in positional)
+        raise MechnetError(f"{what}() takes t_end as its only positional argument; {given} must be given by "
+                           f"name, e.g. {what}(1.0, rtol=1e-6)")
 
 
 def _component(model, path):

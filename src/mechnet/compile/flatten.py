@@ -84,7 +84,8 @@ def flatten(model: Model, options: FlattenOptions = FlattenOptions()) -> FlatSys
             decl = type(comp)._declarations[key]
             parameters.append(Parameter(f"{comp.path}.{key}", sym, value, decl.unit, decl,
                                         f"{comp.path} ({ctype})"))
-        modes.extend(FlatMode(f"{comp.path}.{key}", sym, start, isinstance(type(comp)._declarations[key], Impulse))
+        modes.extend(FlatMode(f"{comp.path}.{key}", sym, start, isinstance(type(comp)._declarations[key], Impulse),
+                              getattr(type(comp)._declarations[key], "values", None))
                      for key, (sym, start) in comp.modes_in_use().items())
         for key in comp.parameter_names():
             if key not in comp.tunable:

@@ -216,9 +216,13 @@ class Mode(Declaration):
 
     kind = "mode"
 
-    def __init__(self, start: float = 0.0, *, doc: str = ""):
+    def __init__(self, start: float = 0.0, *, values: tuple | None = None, doc: str = ""):
         super().__init__(doc=doc)
         self.start = finite_number(start, "Mode start", StructureError)
+        # the values it can take (a friction element's −1, 0, +1), so a start value outside them is refused
+        # by name rather than run as a mode no equation means; None: any number
+        self.values = None if values is None else tuple(finite_number(v, "Mode values", StructureError)
+                                                        for v in values)
 
 
 class Impulse(Mode):

@@ -79,7 +79,8 @@ def simulate(cm, t_end: float, *, t_start: float | None = None, rtol: float = 1e
     if continue_from is not None:
         if not isinstance(continue_from, Result):
             raise MechnetError(f"continue_from takes a Result, got {type(continue_from).__name__}")
-        foreign = [n for n in continue_from.state_names if n not in dae.observed_names]
+        # every column, not the states only: another model with states of the same names is still another
+        foreign = [n for n in continue_from.names if n not in dae.observed_names]
         if foreign:
             raise MechnetError(f"continue_from holds a result of another model: model {cm.name!r} has no "
                                f"{', '.join(foreign[:3])}")
@@ -176,7 +177,7 @@ def start_values(dae, start: dict | None, guess: dict | None, continue_from=None
         if name not in dae.observed_names:
             raise unknown_name(name, dae.observed_names, "start value for")
         if name in dae.d_names:                # a mode's start is its value, not an equation
-            d[dae.d_names.index(name)] = _check_value(value, f"simulate(start=...): start value {name}")
+            d[dae.d_names.index(name)] = _mode_value(dae, name, value)
             continue
         starts[name] = _check_value(value, f"simulate(start=...): start value {name}")
     for name, value in (guess or {}).items():
@@ -184,6 +185,16 @@ def start_values(dae, start: dict | None, guess: dict | None, continue_from=None
             raise unknown_name(name, dae.observed_names, "guess for")
         _check_value(value, f"simulate(guess=...): guess {name}")
     return d, starts
+
+
+def _mode_value(dae, name, value) -> float:
+    """A mode's start value: a number among the values its component declares it can take."""
+    value = _check_value(value, f"simulate(start=...): start value {name}")
+    allowed = dae.info.get("mode_values", {}).get(name)
+    if allowed is not None and value not in allowed:
+        raise MechnetError(f"simulate(start=...): start value {name} = {value:g} is no mode of it; it takes "
+                           f"{', '.join(f'{v:g}' for v in allowed)}")
+    return value
 
 
 def assemble(cm, dae, run, wall, messages, init, plan, p) -> Result:

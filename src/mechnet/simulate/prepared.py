@@ -62,9 +62,15 @@ class PreparedRun:
         return {"cm": self.cm, "t_end": self.t_end, "settings": self.settings, "_plain": None, "_decided": False}
 
     @watched("prepared run")
-    def __call__(self, params: dict | None = None, start: dict | None = None, guess: dict | None = None):
+    def __call__(self, params: dict | None = None, start: dict | None = None, guess: dict | None = None,
+                 **other):
         """The Result of `cm.simulate(t_end, params=params, start=start, guess=guess, **settings)`. Ctrl-C
-        raises `mechnet.Interrupted` with the partial result, as `cm.simulate` does."""
+        raises `mechnet.Interrupted` with the partial result, as `cm.simulate` does. Every other setting
+        (inputs, rtol, ...) is fixed when the run is prepared."""
+        if other:
+            names = ", ".join(other)
+            raise MechnetError(f"a prepared run takes params, start and guess per call; {names} is fixed when "
+                               f"it is prepared: cm.prepare(t_end, {next(iter(other))}=...)")
         if self._plain is not None:
             result = self._plain.run(params, start, guess)
             if result is not None:

@@ -20,7 +20,7 @@ class PartialFriction(SwitchedFriction, PartialCompliant, abstract=True):
     v_rel = Var(unit="rad/s", doc="relative angular velocity der(flange_b.phi - flange_a.phi)")
     a_rel = Var(unit="rad/s^2", doc="relative angular acceleration")
     sa = Var(unit="N*m", doc="path parameter: the holding torque while stuck, tau_static + a_rel sliding")
-    mode = Mode(0.0, doc="0 stuck, +1 sliding forward, -1 sliding backward")
+    mode = Mode(0.0, values=(-1.0, 0.0, 1.0), doc="0 stuck, +1 sliding forward, -1 sliding backward")
     impulse = Impulse(doc="carrier of the sticking jump (0 between events)")
     smooth = Flag(False, doc="regularised friction (no modes, creeps) instead of true stiction")
     v_smooth = Param(1e-4, unit="rad/s", doc="speed of the regularised form's transition", check=positive)
@@ -92,7 +92,7 @@ class OneWayClutch(PartialCompliant):
     v_rel = Var(unit="rad/s", doc="relative angular velocity der(flange_b.phi - flange_a.phi)")
     a_rel = Var(unit="rad/s^2", doc="relative angular acceleration")
     sa = Var(unit="N*m", doc="path parameter: the locking torque while locked, a_rel while free")
-    mode = Mode(0.0, doc="0 free (overrunning), -1 locked")
+    mode = Mode(0.0, values=(-1.0, 0.0), doc="0 free (overrunning), -1 locked")
     impulse = Impulse(doc="carrier of the locking jump (0 between events)")
 
     def equations(self):

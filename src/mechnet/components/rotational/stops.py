@@ -20,7 +20,7 @@ class HardStop(SwitchedStop, PartialCompliant):
     v_rel = Var(unit="rad/s", doc="relative angular velocity")
     a_rel = Var(unit="rad/s^2", doc="relative angular acceleration")
     sa = Var(unit="N*m", doc="path parameter: the contact torque while resting, a_rel while free")
-    mode = Mode(0.0, doc="0 free, -1 resting on phi_min, +1 on phi_max")
+    mode = Mode(0.0, values=(-1.0, 0.0, 1.0), doc="0 free, -1 resting on phi_min, +1 on phi_max")
     impulse = Impulse(doc="carrier of the impact impulse (0 between events)")
 
     def _flow(self):

@@ -18,7 +18,7 @@ class PartialFriction(SwitchedFriction, PartialCompliant, abstract=True):
     v_rel = Var(unit="m/s", doc="relative velocity der(flange_b.s - flange_a.s)")
     a_rel = Var(unit="m/s^2", doc="relative acceleration")
     sa = Var(unit="N", doc="path parameter: the holding force while stuck, f_static + a_rel while sliding")
-    mode = Mode(0.0, doc="0 stuck, +1 sliding forward, -1 sliding backward")
+    mode = Mode(0.0, values=(-1.0, 0.0, 1.0), doc="0 stuck, +1 sliding forward, -1 sliding backward")
     impulse = Impulse(doc="carrier of the sticking jump (0 between events)")
     smooth = Flag(False, doc="regularised friction (no modes, creeps) instead of true stiction")
     v_smooth = Param(1e-4, unit="m/s", doc="speed of the regularised form's transition", check=positive)

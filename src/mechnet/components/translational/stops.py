@@ -17,7 +17,7 @@ class PartialRigidContact(SwitchedStop, PartialCompliant, abstract=True):
     v_rel = Var(unit="m/s", doc="relative velocity der(flange_b.s - flange_a.s)")
     a_rel = Var(unit="m/s^2", doc="relative acceleration")
     sa = Var(unit="N", doc="path parameter: the contact force while resting, a_rel while free")
-    mode = Mode(0.0, doc="0 free, -1 resting on the lower limit, +1 on the upper one")
+    mode = Mode(0.0, values=(-1.0, 0.0, 1.0), doc="0 free, -1 resting on the lower limit, +1 on the upper one")
     impulse = Impulse(doc="carrier of the impact impulse (0 between events)")
     e = Param(1.0, unit="1", doc="coefficient of restitution (0 plastic, 1 elastic)", check=restitution)
     v_rest = Param(0.0, unit="m/s", doc="impact speed at or below which the body rests (0: only when its "
