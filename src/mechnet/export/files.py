@@ -312,15 +312,16 @@ def compile_shared(sources: list, output: Path, include: list = (), defines: dic
         raise ExportError(f"{cc} could not build {output.name}: {done.stderr.strip()[:600]}")
 
 
-def generate_c(fns: dict, path: Path, prefix: str, names: tuple = SERIALISED) -> list:
+def generate_c(fns: dict, path: Path, prefix: str, names: tuple = SERIALISED, extra: tuple = ()) -> list:
     """CasADi's generated C for the contract's functions `names` and its transitions, as `<prefix>.c` and
-    `<prefix>.h`, each exported as `<prefix>_<name>` (two models link into one program); returns those
+    `<prefix>.h`, each exported as `<prefix>_<name>` (two models link into one program), and the functions
+    `extra` (the FMU's rest transitions) the same way; returns those
     names. With the contract's Jacobians among `names`, `ode` and `alg` also get theirs in the form
     CasADi's `external` looks for, built from the same code."""
     cg = ca.CodeGenerator(f"{prefix}.c", {"with_header": True, "prefix": f"{prefix}_"})
     exported = []
     with BUILD_LOCK:
-        for f in [fns[n] for n in names] + list(fns["transition"]):
+        for f in [fns[n] for n in names] + list(fns["transition"]) + list(extra):
             args = f.mx_in()
             wrapped = ca.Function(f"{prefix}_{f.name()}", args, f.call(args), f.name_in(), f.name_out())
             cg.add(wrapped)

@@ -25,13 +25,16 @@ import zipfile
 from importlib import resources
 from pathlib import Path
 
-from .contract import ExportError
+import casadi as ca
+
+from ..caches import BUILD_LOCK
+from .contract import ARGS, ExportError
 from .files import _TEMPORARY, API_NAMES, _parent, _record, _swap, _umask, compile_shared, generate_c
 from .model_description import fmi_variables, model_description
 
 WRAPPER = "mechnet_fmu.c"
 PLATFORM = {2: "linux64", 3: "x86_64-linux"}
-CALLED = ("init", "solve_alg", "ode", "observed", "zero", "forward", "alg_jac")   # what the wrapper calls
+CALLED = ("init", "solve_alg", "ode", "observed", "zero", "zero_rates", "forward", "alg_jac")   # the wrapper's
 
 
 def check_fmu_arguments(path: Path, fmi) -> None:
@@ -60,8 +63,10 @@ def write_fmu(fns: dict, path: Path, fmi: int, overwrite: bool = False,
         root = Path(tmp)
         sources = root / "sources"
         sources.mkdir()
-        generate_c(fns, sources, ident, CALLED)
-        (sources / "model_data.h").write_text(model_data(meta, variables, ident, len(fns["transition"]), fmi))
+        rests = tuple(f for f in fns["rest"] if f is not None)
+        generate_c({**fns, "zero_rates": zero_rates_function(fns)}, sources, ident, CALLED, rests)
+        (sources / "model_data.h").write_text(model_data(meta, variables, ident, len(fns["transition"]), fmi,
+                                                         [f is not None for f in fns["rest"]]))
         shutil.copy(resources.files(__package__) / WRAPPER, sources / WRAPPER)
         (root / "modelDescription.xml").write_text(model_description(meta, variables, ident, fmi,
                                                                      [f"{ident}.c", WRAPPER]))
@@ -117,7 +122,22 @@ def _c_string(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ") + '"'
 
 
-def model_data(meta: dict, variables: list, ident: str, n_transitions: int, fmi: int) -> str:
+def zero_rates_function(fns: dict) -> ca.Function:
+    """(t, x, z, u, p, d) -> [g; ġ; g̈]: the wrapper reads a condition's side on its boundary from its rates,
+    as the simulator does (`core/events.py`). In SX where the contract's functions allow it."""
+    from ..simulate.state_events import lie_rates
+    with BUILD_LOCK:
+        for sym in (ca.SX, ca.MX):
+            try:
+                args = [sym.sym(n, *fns["zero"].size_in(k)) for k, n in enumerate(ARGS)]
+                rates = lie_rates(fns["ode"], fns["alg"], fns["zero"], args)
+                return ca.Function("zero_rates", args, [rates], list(ARGS), ["rates"])
+            except (RuntimeError, NotImplementedError, TypeError):
+                if sym is ca.MX:
+                    raise
+
+
+def model_data(meta: dict, variables: list, ident: str, n_transitions: int, fmi: int, has_rest=()) -> str:
     """model_data.h: sizes, defaults and the value-reference tables the wrapper reads."""
     n_var = len(variables)
     kind, index, setter, set_index, known, known_index = ([0] * (n_var + 1) for _ in range(6))
@@ -166,6 +186,11 @@ def model_data(meta: dict, variables: list, ident: str, n_transitions: int, fmi:
     entries = ", ".join(f"{{{ident}_transition_{k}, {ident}_transition_{k}_work, {ident}_transition_{k}_checkout, "
                         f"{ident}_transition_{k}_release}}" for k in range(n_transitions))
     out += f"#define MN_TRANSITIONS {{{entries or '{0, 0, 0, 0}'}}}\n"
+    # the rest transitions (a plastic jump and rest modes ending an accumulation), {0} where a condition has none
+    rests = ", ".join(f"{{{ident}_rest_{k}, {ident}_rest_{k}_work, {ident}_rest_{k}_checkout, "
+                      f"{ident}_rest_{k}_release}}" if k < len(has_rest) and has_rest[k] else "{0, 0, 0, 0}"
+                      for k in range(n_transitions))
+    out += f"#define MN_RESTS {{{rests or '{0, 0, 0, 0}'}}}\n"
     return out
 
 

@@ -6,6 +6,8 @@
  *   init       consistent start from the start values (a damped Newton, generated)
  *   solve_alg  the loop equations alg = 0 for z, warm-started from the last accepted z
  *   ode, observed, zero, transition_k, forward (directional derivatives), alg_jac (branch and conditioning)
+ *   zero_rates [g; dg/dt; d2g/dt2] along the model, rest_k (the plastic jump ending an accumulation)
+ * The event rules are mechnet's (mechnet/core/events.py), kept here as the simulator keeps them.
  * Nothing here depends on the model: model_data.h says what the value references are.
  */
 #include <math.h>
@@ -31,10 +33,20 @@ enum { ST_OK = 0, ST_WARNING = 1, ST_DISCARD = 2, ST_ERROR = 3, ST_FATAL = 4 };
 enum { MODE_INSTANTIATED, MODE_INIT, MODE_EVENT, MODE_CONTINUOUS, MODE_TERMINATED };
 
 #define TABLE(name) { MN_PREFIXED(name), MN_PREFIXED(name##_work), MN_PREFIXED(name##_checkout), MN_PREFIXED(name##_release) }
-enum { F_INIT, F_SOLVE_ALG, F_ODE, F_OBSERVED, F_ZERO, F_FORWARD, F_ALG_JAC, F_COUNT };
+enum { F_INIT, F_SOLVE_ALG, F_ODE, F_OBSERVED, F_ZERO, F_ZERO_RATES, F_FORWARD, F_ALG_JAC, F_COUNT };
 static const mn_function mn_functions[F_COUNT] = {
-    TABLE(init), TABLE(solve_alg), TABLE(ode), TABLE(observed), TABLE(zero), TABLE(forward), TABLE(alg_jac)};
+    TABLE(init), TABLE(solve_alg), TABLE(ode), TABLE(observed), TABLE(zero), TABLE(zero_rates), TABLE(forward),
+    TABLE(alg_jac)};
 static const mn_function mn_transitions[MN_NT + 1] = MN_TRANSITIONS;
+static const mn_function mn_rests[MN_NT + 1] = MN_RESTS;     /* eval 0 where a condition has no rest */
+#define N_CALLED (F_COUNT + 2 * MN_NT)
+
+/* the k-th function the wrapper calls: the contract's, then the transitions, then the rests (or 0) */
+static const mn_function *called(int k) {
+    if (k < F_COUNT) return &mn_functions[k];
+    if (k < F_COUNT + MN_NT) return &mn_transitions[k - F_COUNT];
+    return mn_rests[k - F_COUNT - MN_NT].eval ? &mn_rests[k - F_COUNT - MN_NT] : 0;
+}
 
 typedef struct {
     char *name;
@@ -46,11 +58,15 @@ typedef struct {
     double x[MN_NX + 1], xdot[MN_NX + 1], z[MN_NZ + 1], z_accepted[MN_NZ + 1];
     double u[MN_NU + 1], p[MN_NP + 1], d[MN_ND + 1], s[MN_NS + 1];
     double y[MN_NY + 1], g[MN_NG + 1], armed[MN_NG + 1];
+    double rates[3 * MN_NG + 1];                /* [g; dg/dt; d2g/dt2] at the present point, when asked */
     int event_rounds;                           /* discrete-state updates since the event mode began */
     unsigned char fired_now[MN_NG + 1];         /* conditions fired since the event mode began */
-    int need_z, need_xdot, need_y, need_g, need_init;
+    double event_times[MN_NG + 1][4];           /* each condition's last four event times, newest last */
+    int n_event_times[MN_NG + 1];
+    double t_step, h_step;                      /* the last completed integrator step: its end and length */
+    int need_z, need_xdot, need_y, need_g, need_rates, need_init;
     int branch_sign;                /* sign of det(d alg / d z) on the assembly branch of the start */
-    int mem[F_COUNT + MN_NT + 1];
+    int mem[N_CALLED + 1];
     const casadi_real **arg;
     casadi_real **res;
     casadi_int *iw;
@@ -181,7 +197,7 @@ static int ensure(Instance *m, int *need, int f, double *target) {
     return ST_OK;
 }
 
-static void changed(Instance *m) { m->need_z = m->need_xdot = m->need_y = m->need_g = 1; }
+static void changed(Instance *m) { m->need_z = m->need_xdot = m->need_y = m->need_g = m->need_rates = 1; }
 
 static int initialize(Instance *m) {
     double w0[MN_NX + MN_NZ + 1], norm;
@@ -199,7 +215,7 @@ static int initialize(Instance *m) {
     m->branch_sign = branch_of(m, &norm);
     m->need_init = 0;
     m->need_z = 0;
-    m->need_xdot = m->need_y = m->need_g = 1;
+    m->need_xdot = m->need_y = m->need_g = m->need_rates = 1;
     return ST_OK;
 }
 
@@ -208,73 +224,184 @@ static int ensure_init(Instance *m) {
     return ST_OK;
 }
 
-static void arm(Instance *m) {
-    int k;
-    for (k = 0; k < MN_NG; k++) m->armed[k] = m->g[k] > 0 ? 1.0 : (m->g[k] < 0 ? -1.0 : m->armed[k]);
+/* ---------------------------------------------------------------- the event rules (mechnet/core/events.py)
+ * A condition is armed with a side, +1 or -1 (0: resting on its boundary). Its side is the sign of g; on
+ * its boundary, the side its rate dg/dt moves it to, else d2g/dt2: never the sign of a value sitting on
+ * the boundary (a ball landed exactly on the floor and thrown back up is above it). A crossing is a change
+ * of side in the condition's direction. Sides are taken at every completed integrator step, at the end of
+ * every event update and after every reset, so no importer setting leaves a condition on a stale side. */
+typedef struct { int side, on, by_rate; } Side;
+
+static int sign_of(double v) { return (v > 0) - (v < 0); }
+static double location_tolerance(double t) { return 1e-12 * (fabs(t) > 1 ? fabs(t) : 1); }
+
+static int fresh_rates(Instance *m) { return ensure(m, &m->need_rates, F_ZERO_RATES, m->rates); }
+
+/* the side of condition k at the present point (fresh rates); `near`: how far from 0 it still counts as on
+ * its boundary (after its own event: where the importer located it) */
+static Side side_of(const Instance *m, int k, double near) {
+    double g = m->rates[k], gd = m->rates[MN_NG + k], gdd = m->rates[2 * MN_NG + k];
+    double tol = location_tolerance(m->t);
+    Side s;
+    s.on = g == 0 || fabs(g) <= fabs(gd) * tol || fabs(g) <= near;
+    s.by_rate = fabs(gd) > fabs(gdd) * tol;
+    s.side = !s.on ? sign_of(g) : (s.by_rate ? sign_of(gd) : sign_of(gdd));
+    return s;
 }
+
+/* armed on `before`, now on side `after`: falling from + to <= 0, rising from - to >= 0; from the boundary
+ * only a directional condition crosses, by leaving it into its direction */
+static int crosses(int direction, double before, int after) {
+    if (before > 0) return after <= 0 && direction <= 0;
+    if (before < 0) return after >= 0 && direction >= 0;
+    return after != 0 && direction != 0 && after == direction;
+}
+
+/* left by its own reset on its boundary, held into its direction by d2g/dt2 alone: it crosses again */
+static int fires_again(int direction, Side s) { return s.on && !s.by_rate && direction != 0 && s.side == direction; }
 
 static void accept(Instance *m) {
     int k;
     for (k = 0; k < MN_NZ; k++) m->z_accepted[k] = m->z[k];
 }
 
-/* which way condition k crossed since it was last armed: 1 rising, -1 falling, 0 not. Reaching 0 counts
- * (an integrator's located root may be exactly 0), except for a condition that already fired at this
- * instant: its own reset may leave it at 0, so it fires again only when it strictly crosses */
-static int crossing(const Instance *m, int k) {
-    double g = m->g[k];
-    int strict = m->fired_now[k];
-    if (m->armed[k] < 0 && (strict ? g > 0 : g >= 0)) return 1;
-    if (m->armed[k] > 0 && (strict ? g < 0 : g <= 0)) return -1;
+/* the step the importer takes (s): what it cannot resolve of an event sequence */
+static double importer_step(const Instance *m) {
+    double h = m->t - m->t_step > m->h_step ? m->t - m->t_step : m->h_step;
+    return h > location_tolerance(m->t) ? h : location_tolerance(m->t);
+}
+
+/* the events of condition k, at t: its last four distinct times */
+static void remember_event(Instance *m, int k) {
+    int n = m->n_event_times[k];
+    if (n && m->event_times[k][n < 4 ? n - 1 : 3] == m->t) return;
+    if (n == 4) { memmove(m->event_times[k], m->event_times[k] + 1, 3 * sizeof(double)); n = 3; }
+    m->event_times[k][n] = m->t;
+    m->n_event_times[k] = n + 1;
+}
+
+/* T-infinity of condition k's events when their last three gaps shrink by a consistent ratio r < 1, else -1 */
+static double accumulation_time(const Instance *m, int k) {
+    const double *t = m->event_times[k];
+    double g1, g2, g3, r1, r2, r;
+    if (m->n_event_times[k] < 4) return -1;
+    g1 = t[1] - t[0]; g2 = t[2] - t[1]; g3 = t[3] - t[2];
+    if (g1 <= 0 || g2 <= 0 || g3 <= 0) return -1;
+    r1 = g2 / g1; r2 = g3 / g2; r = r1 > r2 ? r1 : r2;
+    if (!(r < 1 && fabs(r2 - r1) <= 0.1 * r)) return -1;
+    return t[3] + g3 * r / (1 - r);
+}
+
+/* should condition k's events end in its rest: they repeat from the same state at this instant, or
+ * accumulate within the importer's step, or its rebound is shorter than that step (2|dg/dt|/|d2g/dt2|) */
+static const char *rest_reason(const Instance *m, int k, Side s, int repeated) {
+    double h = importer_step(m), t_inf = accumulation_time(m, k);
+    double gd = m->rates[MN_NG + k], gdd = m->rates[2 * MN_NG + k];
+    if (repeated) return "its reset leaves it crossing, so it fires again at the same instant";
+    if (t_inf >= 0 && t_inf - m->t <= h) return "its events accumulate within the importer's step";
+    if (s.by_rate && s.side == -mn_zero_direction[k] && sign_of(gdd) == -sign_of(gd) && 2 * fabs(gd) <= fabs(gdd) * h)
+        return "its rebound is shorter than the importer's step";
     return 0;
 }
 
+/* condition k's events end in its rest transition (a plastic jump and the rest modes) */
+static int come_to_rest(Instance *m, int k, const char *why) {
+    double x_plus[MN_NX + 1], d_plus[MN_ND + 1];
+    const double *in[6] = {&m->t, m->x, m->z, m->u, m->p, m->d};
+    double *out[2] = {x_plus, d_plus};
+    int st;
+    mn_call(m, mn_rests[k].eval, m->mem[F_COUNT + MN_NT + k], in, 6, out, 2);
+    memcpy(m->x, x_plus, sizeof(double) * MN_NX);
+    memcpy(m->d, d_plus, sizeof(double) * MN_ND);
+    changed(m);
+    if (m->logging) logf_(m, ST_OK, "logEvents", "t = %.17g: %s comes to rest: %s", m->t, mn_zero_labels[k], why);
+    if ((st = fresh_rates(m)) != ST_OK) return st;
+    m->armed[k] = side_of(m, k, 0).side;
+    m->n_event_times[k] = 0;
+    return ST_OK;
+}
+
+/* every condition on its present side, where it has one (one resting on its boundary keeps the side it
+ * was on: coming to rest is no crossing) */
+static int arm(Instance *m) {
+    int k, st;
+    if (MN_NG == 0) return ST_OK;
+    if ((st = fresh_rates(m)) != ST_OK) return st;
+    for (k = 0; k < MN_NG; k++) {
+        Side s = side_of(m, k, 0);
+        if (s.side != 0 && !crosses(mn_zero_direction[k], m->armed[k], s.side)) m->armed[k] = s.side;
+    }
+    return ST_OK;
+}
+
 /* the discrete-state update (one round of FMI's event iteration): every condition that crossed in its
- * direction since it was armed fires, in index order, and takes the side its reset leaves it on (its own
- * reset does not make it fire again, as in cm.simulate). One that crossed the other way is re-armed on
- * its new side. The others keep their side, so the next round sees a condition these resets threw
- * across (a cascade). A round that fires nothing arms every condition on its present side. */
+ * direction since it was armed fires, in index order, each transition seeing the resets before it. A fired
+ * condition takes the side its reset leaves it on; one left crossing fires again (twice from the same
+ * instant: an accumulation its rest ends). The others keep their side, so the next round sees a condition
+ * these resets threw across (a cascade). A round that fires nothing arms every condition on its side. */
 static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
     int k, st, fired = 0, last = 0;
-    signed char direction[MN_NG + 1];
+    signed char fired_here[MN_NG + 1];
+    unsigned char earlier[MN_NG + 1];
+    double before[MN_NG + 1], near[MN_NG + 1];
     *values_changed = 0;
     *needs_more = 0;
-    if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
+    if (MN_NG == 0) return ST_OK;
+    if ((st = fresh_rates(m)) != ST_OK) return st;
     for (k = 0; k < MN_NG; k++) {
-        int c = crossing(m, k);
-        direction[k] = 0;
-        if (c != 0 && mn_zero_direction[k] != 0 && mn_zero_direction[k] != c) m->armed[k] = c;
-        else if (c != 0) {
+        Side s = side_of(m, k, 0);
+        fired_here[k] = 0;
+        before[k] = m->armed[k];
+        earlier[k] = m->fired_now[k];
+        /* one the importer located (found in the first round, reaching its boundary at speed) counts as on
+         * its boundary within what it was located to; one a reset threw across does not (a cascade) */
+        near[k] = m->event_rounds == 0 && s.by_rate && s.side == mn_zero_direction[k]
+            ? 2 * fmax(fabs(m->rates[k]), fabs(m->rates[MN_NG + k]) * location_tolerance(m->t)) : 0;
+        if (!crosses(mn_zero_direction[k], m->armed[k], s.side)) {
+            if (s.side != 0) m->armed[k] = s.side;     /* moved the other way, or stayed */
+            continue;
+        }
+        {
             double x_plus[MN_NX + 1], d_plus[MN_ND + 1];
             const double *in[6] = {&m->t, m->x, m->z, m->u, m->p, m->d};
             double *out[2] = {x_plus, d_plus};
             mn_call(m, mn_transitions[k].eval, m->mem[F_COUNT + k], in, 6, out, 2);
             memcpy(m->x, x_plus, sizeof(double) * MN_NX);
             memcpy(m->d, d_plus, sizeof(double) * MN_ND);
-            direction[k] = (signed char)c;
-            m->fired_now[k] = 1;
-            fired++;
-            last = k;
-            if (m->logging) logf_(m, ST_OK, "logEvents", "t = %.17g: %s", m->t, mn_zero_labels[k]);
         }
+        fired_here[k] = 1;
+        m->fired_now[k] = 1;
+        remember_event(m, k);
+        fired++;
+        last = k;
+        if (m->logging) logf_(m, ST_OK, "logEvents", "t = %.17g: %s", m->t, mn_zero_labels[k]);
     }
-    if (fired && ++m->event_rounds > MN_MAX_EVENT_ROUNDS) {
+    if (!fired) return arm(m);
+    if (++m->event_rounds > MN_MAX_EVENT_ROUNDS) {
         logf_(m, ST_ERROR, "logStatusError", "t = %.17g: events keep firing after %d rounds of discrete-state "
               "updates at the same time (the last: %s); the conditions chatter", m->t, MN_MAX_EVENT_ROUNDS,
               mn_zero_labels[last]);
         return ST_ERROR;
     }
-    if (fired) {
-        changed(m);
-        *values_changed = 1;
-        *needs_more = 1;                        /* another round: a reset may make another condition cross */
-        if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
-        accept(m);
-        for (k = 0; k < MN_NG; k++)             /* exactly at 0 after its reset: it has crossed */
-            if (direction[k]) m->armed[k] = m->g[k] > 0 ? 1.0 : (m->g[k] < 0 ? -1.0 : direction[k]);
-        return ST_OK;
+    changed(m);
+    *values_changed = 1;
+    *needs_more = 1;                        /* another round: a reset may make another condition cross */
+    if ((st = fresh_rates(m)) != ST_OK) return st;
+    accept(m);
+    for (k = 0; k < MN_NG; k++) {
+        Side s;
+        const char *why;
+        if (!fired_here[k]) continue;
+        s = side_of(m, k, near[k]);
+        why = mn_rests[k].eval ? rest_reason(m, k, s, earlier[k] && fires_again(mn_zero_direction[k], s)) : 0;
+        if (why) {
+            if ((st = come_to_rest(m, k, why)) != ST_OK) return st;
+        } else if (fires_again(mn_zero_direction[k], s)) {
+            m->armed[k] = before[k];            /* it crosses again in the next round */
+        } else if (s.side != 0) {
+            m->armed[k] = s.side;
+        }
     }
-    arm(m);
     return ST_OK;
 }
 
@@ -294,9 +421,10 @@ static Instance *create(const char *name, int logging) {
     m->name = (char *)malloc(strlen(name) + 1);
     strcpy(m->name, name);
     m->logging = logging;
-    for (f = 0; f < F_COUNT + MN_NT; f++) {
-        const mn_function *fn = f < F_COUNT ? &mn_functions[f] : &mn_transitions[f - F_COUNT];
+    for (f = 0; f < N_CALLED; f++) {
+        const mn_function *fn = called(f);
         casadi_int a, r, i, w;
+        if (!fn) continue;
         fn->work(&a, &r, &i, &w);
         sz_arg = a > sz_arg ? a : sz_arg;
         sz_res = r > sz_res ? r : sz_res;
@@ -322,8 +450,8 @@ static Instance *create(const char *name, int logging) {
 static void destroy(Instance *m) {
     int f;
     if (!m) return;
-    for (f = 0; f < F_COUNT + MN_NT; f++)
-        (f < F_COUNT ? &mn_functions[f] : &mn_transitions[f - F_COUNT])->release(m->mem[f]);
+    for (f = 0; f < N_CALLED; f++)
+        if (called(f)) called(f)->release(m->mem[f]);
     free(m->arg); free(m->res); free(m->iw); free(m->w); free(m->name); free(m);
 }
 
@@ -484,13 +612,19 @@ static int exit_init(Instance *m) {
     int k, st = check_parameters(m);        /* values set one by one before: judged together here */
     if (st != ST_OK) return st;
     if ((st = ensure_init(m)) != ST_OK) return st;
-    if ((st = ensure(m, &m->need_g, F_ZERO, m->g)) != ST_OK) return st;
-    arm(m);
-    /* a condition marked at_start that is already past zero in its direction (a friction element
-     * pushed beyond its static limit from the start) fires in the first event update */
-    for (k = 0; k < MN_NG; k++)
-        if (mn_zero_at_start[k] && mn_zero_direction[k] && m->g[k] * mn_zero_direction[k] > 0)
-            m->armed[k] = -mn_zero_direction[k];
+    m->t_step = m->t;
+    m->h_step = 0;
+    memset(m->n_event_times, 0, sizeof m->n_event_times);
+    if (MN_NG && (st = fresh_rates(m)) != ST_OK) return st;
+    /* every condition on its side; one on its boundary leaving it into its direction crosses now (a ball
+     * placed on the floor falls onto it), and one marked at_start already past zero in its direction (a
+     * friction element pushed beyond its static limit from the start): both fire in the first update */
+    for (k = 0; k < MN_NG; k++) {
+        Side s = side_of(m, k, 0);
+        int dir = mn_zero_direction[k];
+        m->armed[k] = s.side;
+        if (dir && s.side == dir && (s.on || mn_zero_at_start[k])) m->armed[k] = -dir;
+    }
     return enter_event_mode(m);
 }
 
@@ -503,10 +637,23 @@ static int reset(Instance *m) {
     return ST_OK;
 }
 
-static int completed_step(Instance *m) {
-    int st = ensure_z(m);
-    if (st == ST_OK) accept(m);
-    return st;
+/* an accepted integrator step: its length is what the importer resolves; a condition that crossed in
+ * its direction during it asks for an event (an importer that missed the sign change of its indicator,
+ * or stepped onto 0, still gets it), and the others take the side they are on */
+static int completed_step(Instance *m, int *enter_event) {
+    int k, st = ensure_z(m);
+    *enter_event = 0;
+    if (st != ST_OK) return st;
+    accept(m);
+    if (m->t > m->t_step) { m->h_step = m->t - m->t_step; m->t_step = m->t; }
+    if (MN_NG == 0) return ST_OK;
+    if ((st = fresh_rates(m)) != ST_OK) return st;
+    for (k = 0; k < MN_NG; k++) {
+        Side s = side_of(m, k, 0);
+        if (crosses(mn_zero_direction[k], m->armed[k], s.side)) *enter_event = 1;
+        else if (s.side != 0) m->armed[k] = s.side;
+    }
+    return ST_OK;
 }
 
 static int set_time(Instance *m, double t) {
@@ -646,7 +793,13 @@ EXPORT int fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info) {
 }
 EXPORT int fmi2EnterContinuousTimeMode(fmi2Component c) { ((Instance *)c)->mode = MODE_CONTINUOUS; return ST_OK; }
 EXPORT int fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetPrior, fmi2Boolean *enterEventMode, fmi2Boolean *terminate) {
-    (void)noSetPrior; *enterEventMode = 0; *terminate = 0; return completed_step((Instance *)c); }
+    int enter, st;
+    (void)noSetPrior;
+    *terminate = 0;
+    st = completed_step((Instance *)c, &enter);
+    *enterEventMode = enter ? 1 : 0;
+    return st;
+}
 EXPORT int fmi2SetTime(fmi2Component c, double t) { return set_time((Instance *)c, t); }
 EXPORT int fmi2SetContinuousStates(fmi2Component c, const double x[], size_t n) { return set_states((Instance *)c, x, n); }
 EXPORT int fmi2GetDerivatives(fmi2Component c, double xdot[], size_t n) { return GET_DERIVATIVES((Instance *)c, xdot, n); }
@@ -784,7 +937,13 @@ EXPORT int fmi3UpdateDiscreteStates(fmi3Instance c, bool *needUpdate, bool *term
 }
 EXPORT int fmi3EnterContinuousTimeMode(fmi3Instance c) { ((Instance *)c)->mode = MODE_CONTINUOUS; return ST_OK; }
 EXPORT int fmi3CompletedIntegratorStep(fmi3Instance c, bool noSetPrior, bool *enterEventMode, bool *terminate) {
-    (void)noSetPrior; *enterEventMode = false; *terminate = false; return completed_step((Instance *)c); }
+    int enter, st;
+    (void)noSetPrior;
+    *terminate = false;
+    st = completed_step((Instance *)c, &enter);
+    *enterEventMode = enter != 0;
+    return st;
+}
 EXPORT int fmi3SetTime(fmi3Instance c, double t) { return set_time((Instance *)c, t); }
 EXPORT int fmi3SetContinuousStates(fmi3Instance c, const double x[], size_t n) { return set_states((Instance *)c, x, n); }
 EXPORT int fmi3GetContinuousStateDerivatives(fmi3Instance c, double xdot[], size_t n) { return GET_DERIVATIVES((Instance *)c, xdot, n); }

@@ -86,6 +86,7 @@ import numpy as np
 
 from ..caches import built
 from ..core.errors import IntegrationError
+from ..core.events import accumulation_time, location_tolerance
 from ..numeric import NumpyCall, mapped_in
 from .events import Event
 from .initialize import solve_algebraic
@@ -95,7 +96,6 @@ SPLIT_DEPTH = 3          # times a predicted but unconfirmed crossing is searche
 SX_SOLVE_MAX = 8         # algebraic variables up to which ż is solved symbolically in SX
 MAX_CASCADE = 8          # rounds of firings at one instant (A's reset makes B cross, ...) before accumulation
 ACCUMULATION_RESOLUTION = 10.0   # time resolutions of an event within which a predicted T∞ is a Zeno point
-GEOMETRIC_SPREAD = 0.1   # relative spread of the last two gap ratios for a geometric accumulation
 
 
 class EventSearchFailed(RuntimeError):
@@ -157,22 +157,31 @@ def _build_zero_rates(dae):
     return _zero_rates(dae, ca.MX)
 
 
-def _zero_rates(dae, sym):
-    args = [sym.sym(n, v.shape) for n, v in zip("txzupd", (dae.t, dae.x, dae.z, dae.u, dae.p, dae.d))]
+def lie_rates(ode, alg, zero, args):
+    """[g; ġ; g̈] of the zero functions at the symbols `args` (t, x, z, u, p, d), along the DAE given by
+    its functions (ż from alg = 0, inputs held): the simulator's and the FMU wrapper's rules on a
+    boundary read the same rates."""
     t, x, z = args[:3]
-    f = dae.ode(*args)
+    f = ode(*args)
     w, field = x, f
     if z.numel():
-        a = dae.alg(*args)
+        a = alg(*args)
         zdot = -ca.solve(ca.jacobian(a, z), ca.jacobian(a, x) @ f + ca.jacobian(a, t))
         w, field = ca.vertcat(x, z), ca.vertcat(f, zdot)
 
     def lie(e):
         return ca.jtimes(e, w, field) + ca.jacobian(e, t)
 
-    g = dae.zero(*args)
+    g = zero(*args)
     gd = lie(g)
-    rates = ca.densify(ca.vertcat(g, gd, lie(gd)))
+    return ca.densify(ca.vertcat(g, gd, lie(gd)))
+
+
+def _zero_rates(dae, sym):
+    args = [sym.sym(n, v.shape) for n, v in zip("txzupd", (dae.t, dae.x, dae.z, dae.u, dae.p, dae.d))]
+    x, z = args[1:3]
+    g = dae.zero(*args)
+    rates = lie_rates(dae.ode, dae.alg, dae.zero, args)
     eps = 4 * np.finfo(float).eps
 
     def round_off(e):
@@ -211,7 +220,7 @@ def _cubic_extrema(g_a, d_a, g_b, d_b, h):
 
 def _allowed(dirs, before, after):
     """Which functions go from side `before` (±1, 0 unknown) to a value `after` across zero, in their
-    direction: falling from + to ≤ 0, rising from − to ≥ 0."""
+    direction: falling from + to ≤ 0, rising from − to ≥ 0 (`core.events.crosses`, on arrays)."""
     # from the boundary (side 0: resting on it with ġ = g̈ = 0) only a directional function crosses, by
     # leaving it into its direction, as `_crossing_now` decides for one that leaves it with a rate; a
     # "both" function leaving 0 has not changed sign
@@ -366,11 +375,11 @@ class StateEvents:
             self._armed, self._armed_at = sides, t
 
     def _tol_t(self, t):
-        return 1e-12 * max(1.0, abs(t))
+        return location_tolerance(t)
 
     def _sides(self, t, rates, near=None):
-        """The side each function is on just after t: the sign of g, or where g is on its boundary the
-        sign of ġ, else of g̈. Returns (sides, on_boundary, moving_by_rate). `near`: after an event, how
+        """The side each function is on just after t (`core.events.side`, on arrays): the sign of g, or
+        where g is on its boundary the sign of ġ, else of g̈. Returns (sides, on_boundary, moving_by_rate). `near`: after an event, how
         close to zero each function was found (a fired one is on its boundary unless its reset moved it
         away)."""
         g, gd, gdd = rates
@@ -759,12 +768,10 @@ class StateEvents:
             self._accumulation(t, label, f"its events are {gaps[-1]:.3g} s apart, below what their location "
                                          f"resolves")
             return
-        if gaps.size < 3:
-            return
-        r1, r2 = gaps[1] / gaps[0], gaps[2] / gaps[1]
-        r = max(r1, r2)
-        if r < 1 and abs(r2 - r1) <= GEOMETRIC_SPREAD * r:
-            remaining = gaps[-1] * r / (1 - r)
+        t_inf = accumulation_time(times)
+        if t_inf is not None:
+            remaining = t_inf - t
+            r = gaps[2] / gaps[1]
             resolution = self._resolution[1][label] if self._resolution and self._resolution[0] == t \
                 else self._tol_t(t)
             if remaining <= ACCUMULATION_RESOLUTION * resolution:

@@ -1,0 +1,103 @@
+"""The rules of mechnet's events, stated once: what side a condition is on, what counts as its crossing,
+and when a run of impacts has come to rest.
+
+Every rule here is implemented twice, by necessity: by the simulator (`simulate/state_events.py`, on
+arrays, in numpy) and by the FMU wrapper (`export/mechnet_fmu.c`, in C, with no Python at hand). Both
+follow these functions, and both are tested against one table of cases (`tests/hard/test_event_rules.py`):
+the functions here say what the answer is, the cases check each implementation gives it.
+
+A condition g of a `When` is *armed* with a side, +1 or −1 (0: resting on its boundary, not moving).
+
+- **Its side** is the sign of g; on its boundary (g = 0, or within what one location step moves it) it is
+  the side g moves to: the sign of ġ, else of g̈ (`side`). Never the sign of a value sitting on the
+  boundary: a ball landed exactly on the floor and thrown back up by its impact is above it.
+- **A crossing** is a change of side in the condition's direction (`crosses`): falling from + to −
+  or onto 0, rising from − to + or onto 0; "both" either way. From side 0 only a directional condition
+  crosses, by leaving its boundary into its direction.
+- **After a reset**, the fired condition takes the side the reset leaves it on (`side` again). One the
+  reset leaves on its boundary held there by g̈ alone (ġ = 0, g̈ pushing it across) crosses again at the
+  same instant (`fires_again`): repeated from the same state, that is an accumulation, and the condition's
+  rest transition ends it (a ball at rest).
+- **Accumulation**: the events of one condition whose last three gaps shrink by a consistent ratio
+  r < 1 accumulate at T∞ = t + gap·r/(1 − r) (`accumulation_time`); when what remains is shorter than
+  what the integration can resolve, the rest transition ends them (`rests`).
+"""
+from __future__ import annotations
+
+import math
+
+RISING, FALLING, BOTH = 1, -1, 0
+GEOMETRIC_SPREAD = 0.1   # relative spread of the last two gap ratios for a geometric accumulation
+
+
+def location_tolerance(t: float) -> float:
+    """How finely an event's time is located (s): 1e-12 relative, at least 1e-12 s."""
+    return 1e-12 * max(1.0, abs(t))
+
+
+def side(g: float, gd: float, gdd: float, t: float) -> tuple[int, bool, bool]:
+    """(side, on its boundary, moving by its rate): the sign of g; on the boundary (g = 0, or within what
+    the location tolerance moves it at speed ġ) the sign of ġ when ġ moves it further than g̈ does over
+    that tolerance, else of g̈; 0 when it rests there (g = ġ = g̈ = 0)."""
+    tol = location_tolerance(t)
+    on = g == 0 or abs(g) <= abs(gd) * tol
+    by_rate = abs(gd) > abs(gdd) * tol
+    if not on:
+        return _sign(g), False, by_rate
+    return (_sign(gd) if by_rate else _sign(gdd)), True, by_rate
+
+
+def crosses(direction: int, before: int, after: float) -> bool:
+    """Does a condition armed on side `before` (±1, 0 resting on its boundary) cross by reaching `after`
+    (a value or a side): falling from + to ≤ 0, rising from − to ≥ 0, in its direction; from its boundary
+    only a directional one crosses, by leaving it into its direction."""
+    if before > 0:
+        return after <= 0 and direction <= 0
+    if before < 0:
+        return after >= 0 and direction >= 0
+    return after != 0 and direction != 0 and _sign(after) == direction
+
+
+def fires_again(direction: int, after: tuple[int, bool, bool]) -> bool:
+    """A condition that just fired, and whose reset leaves it (`side` after the reset) on its boundary
+    held into its direction by g̈ alone: it crosses again at once (a ball resting on the floor, whose
+    reset v → −e·0 changes nothing). One that goes on across with speed has completed its crossing (a
+    sensor), one thrown back has left."""
+    s, on, by_rate = after
+    return on and not by_rate and direction != 0 and s == direction
+
+
+def accumulation_time(times) -> float | None:
+    """T∞ of events at `times` (increasing) whose last three gaps shrink by a consistent ratio r < 1:
+    t + gap·r/(1 − r); None when they do not (fewer than four events, gaps that grow or wander)."""
+    times = list(times)[-4:]
+    if len(times) < 4:
+        return None
+    gaps = [b - a for a, b in zip(times, times[1:])]
+    if min(gaps) <= 0:
+        return None
+    r1, r2 = gaps[1] / gaps[0], gaps[2] / gaps[1]
+    r = max(r1, r2)
+    if not (r < 1 and abs(r2 - r1) <= GEOMETRIC_SPREAD * r):
+        return None
+    return times[-1] + gaps[-1] * r / (1 - r)
+
+
+def rests(times, resolution: float) -> bool:
+    """Do the events at `times` accumulate within `resolution` (s) of the last: the events still to come
+    are closer together than the integration fixes them, so the condition's rest transition ends them."""
+    t_inf = accumulation_time(times)
+    return t_inf is not None and t_inf - list(times)[-1] <= resolution
+
+
+def flight_time(gd: float, gdd: float) -> float:
+    """How long a condition leaving its boundary at rate ġ, pulled back at a constant g̈ of the other
+    sign, stays off it: 2|ġ|/|g̈| (inf when g̈ does not pull it back). An FMU whose importer steps by h
+    cannot see a flight shorter than h: such a rebound rests."""
+    if gd == 0 or gdd == 0 or _sign(gd) == _sign(gdd):
+        return math.inf
+    return 2 * abs(gd) / abs(gdd)
+
+
+def _sign(v: float) -> int:
+    return (v > 0) - (v < 0)

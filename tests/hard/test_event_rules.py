@@ -1,0 +1,92 @@
+"""The event rules of `mechnet.core.events`, case by case, and the simulator's array form of them.
+
+Each case is a condition's values (g, ġ, g̈) at a time and the side or crossing the rules give: a ball
+landing exactly on the floor, leaving it, resting on it; friction breaking away exactly at its limit; a
+condition 0 at the start. The simulator's `_sides`/`_allowed` (numpy, on arrays) must give the same
+answers as the scalar rules; the FMU wrapper's C is held to them through the exported scenes
+(tests/export: the bouncing ball at importer settings, the clutch and brake, the cascade)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mechnet.core import events as ev
+from mechnet.simulate.state_events import StateEvents, _allowed
+
+#  name, (g, ġ, g̈), t, expected (side, on, by_rate)
+SIDES = [
+    ("ball above the floor, falling", (0.5, -3.0, -9.81), 0.2, (1, False, True)),
+    ("ball landed exactly on the floor, falling", (0.0, -4.43, -9.81), 0.45, (-1, True, True)),
+    ("ball thrown back up from the floor", (0.0, 3.54, -9.81), 0.45, (1, True, True)),
+    ("ball resting on the floor, pulled into it", (0.0, 0.0, -9.81), 4.1, (-1, True, False)),
+    ("ball resting, nothing pulling (rest mode)", (0.0, 0.0, 0.0), 4.1, (0, True, False)),
+    ("a round-off below the floor, moving up: its rate decides", (-1e-16, 1.0, -9.81), 1.0, (1, True, True)),
+    ("friction force exactly at its limit, rising", (0.0, 2.0, 0.0), 0.3, (1, True, True)),
+    ("friction force at its limit, still, pushed on by g̈", (0.0, 0.0, 5.0), 0.3, (1, True, False)),
+    ("a condition 0 at the start, not moving", (0.0, 0.0, 0.0), 0.0, (0, True, False)),
+    ("below, well away from the boundary", (-0.1, 5.0, 0.0), 1e3, (-1, False, True)),
+]
+
+#  name, direction, armed side, side now, crosses?
+CROSSINGS = [
+    ("falling through the floor", ev.FALLING, 1, -1, True),
+    ("falling onto the boundary and resting there", ev.FALLING, 1, 0, True),
+    ("rising across a falling condition", ev.FALLING, -1, 1, False),
+    ("rising through its limit", ev.RISING, -1, 1, True),
+    ("both ways, falling", ev.BOTH, 1, -1, True),
+    ("both ways, rising", ev.BOTH, -1, 1, True),
+    ("leaving a rest into its direction (a force stepping on)", ev.RISING, 0, 1, True),
+    ("leaving a rest against its direction (a ball thrown up)", ev.FALLING, 0, 1, False),
+    ("a 'both' condition leaving 0 has not changed sign", ev.BOTH, 0, 1, False),
+    ("staying on its side", ev.FALLING, 1, 1, False),
+]
+
+
+@pytest.mark.parametrize("name, rates, t, expected", SIDES, ids=[c[0] for c in SIDES])
+def test_side_of_a_condition(name, rates, t, expected):
+    assert ev.side(*rates, t) == expected
+
+
+@pytest.mark.parametrize("name, rates, t, expected", SIDES, ids=[c[0] for c in SIDES])
+def test_the_simulators_sides_follow_the_rules(name, rates, t, expected):
+    """StateEvents._sides on arrays gives the scalar rule's side, boundary and rate flags."""
+    sides, on, by_rate = StateEvents._sides(StateEvents(), t, tuple(np.array([v]) for v in rates))
+    assert (int(sides[0]), bool(on[0]), bool(by_rate[0])) == expected
+
+
+@pytest.mark.parametrize("name, direction, before, after, expected", CROSSINGS, ids=[c[0] for c in CROSSINGS])
+def test_crossings(name, direction, before, after, expected):
+    assert ev.crosses(direction, before, after) is expected
+    simulator = _allowed(np.array([direction]), np.array([float(before)]), np.array([float(after)]))
+    assert bool(simulator[0]) is expected
+
+
+def test_a_reset_that_leaves_a_ball_held_into_the_floor_fires_again():
+    """v → −e·0 leaves the ball on the floor with ġ = 0 and g̈ = −g: it crosses again (an accumulation its
+    rest ends); thrown back up with speed it has left; a sensor going on across has completed its crossing."""
+    assert ev.fires_again(ev.FALLING, ev.side(0.0, 0.0, -9.81, 4.0))
+    assert not ev.fires_again(ev.FALLING, ev.side(0.0, 1.0, -9.81, 4.0))
+    assert not ev.fires_again(ev.FALLING, ev.side(0.0, -1.0, 0.0, 4.0))
+
+
+def test_accumulation_of_a_bouncing_ball():
+    """Impacts of a ball dropped from 1 m with e = 0.8 (closed form: t1 = √(2/g), gaps 2·e^k·v1/g) predict
+    T∞ = t1·(1 + e)/(1 − e) to round-off (rtol 1e-12); gaps that do not shrink predict nothing."""
+    g, e = 9.81, 0.8
+    t1, v1 = math.sqrt(2 / g), math.sqrt(2 * g)
+    times = [t1]
+    for k in range(1, 6):
+        times.append(times[-1] + 2 * e ** k * v1 / g)
+    assert ev.accumulation_time(times) == pytest.approx(t1 * (1 + e) / (1 - e), rel=1e-12)
+    assert ev.accumulation_time([0.0, 1.0, 2.0, 3.0]) is None
+    assert ev.accumulation_time(times[:3]) is None
+    remaining = ev.accumulation_time(times) - times[-1]
+    assert ev.rests(times, 1.01 * remaining) and not ev.rests(times, 0.99 * remaining)
+
+
+def test_flight_time_of_a_rebound():
+    """Thrown up at 1 m/s under g = 9.81 m/s²: back after 2/9.81 s; pushed on by g̈: never."""
+    assert ev.flight_time(1.0, -9.81) == pytest.approx(2 / 9.81, rel=1e-15)
+    assert ev.flight_time(1.0, 9.81) == math.inf and ev.flight_time(0.0, -9.81) == math.inf
