@@ -32,6 +32,7 @@ import io
 import os
 import sys
 import tempfile
+import threading
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -302,8 +303,10 @@ def study(cm, t_end: float, *, at: float | None = None, names=None, methods=None
                 native_trials.append((trial, run.case))
             trials.append(trial)
         if parallel and repeat > 1:         # round-robin over the native rows, each round one sweep
-            rounds = [sweep(cm, t_end=at, cases=[c for _, c in native_trials], workers=workers, client=client,
-                            t_out=[0.0, at]) for _ in range(repeat)]
+            again = [{"params": c.params, "start": c.start, "inputs": c.inputs, "settings": c.settings}
+                     for _, c in native_trials]
+            rounds = [sweep(cm, t_end=at, cases=again, workers=workers, client=client, t_out=[0.0, at])
+                      for _ in range(repeat)]
             for k, (trial, _) in enumerate(native_trials):
                 trial.times = [r.runs[k].wall for r in rounds]
     for method in ("rk", "collocation"):
@@ -344,12 +347,24 @@ def _time_rounds(trials, repeat):
         t.timer = None                       # (a closure over integrators: not part of the result)
 
 
+_QUIET_LOCK = threading.RLock()   # the descriptors are the process's: one quiet block at a time
+
+
 @contextlib.contextmanager
 def _quiet():
     """Within the block, what anything prints — CasADi's C++ through the process's file descriptors 1 and 2,
     or through Python's sys.stdout and sys.stderr — goes to the yielded list (its lines, on leaving), not to
     the terminal. Python-level redirection alone misses the C++ writes; descriptor-level alone misses what
-    CasADi hands to Python's streams. For the study's own runs only: the descriptors are the process's."""
+    CasADi hands to Python's streams. For the study's own runs only: the descriptors are the process's, so
+    blocks in two threads take turns (overlapping, they restored each other's copies in the wrong order and
+    left the process silent), and what another thread prints meanwhile lands in the note too."""
+    with _QUIET_LOCK:
+        with _quiet_unlocked() as lines:
+            yield lines
+
+
+@contextlib.contextmanager
+def _quiet_unlocked():
     lines: list[str] = []
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(Exception):

@@ -11,11 +11,13 @@ before it ran (start values that cannot be met) with its message, in one table.
 """
 from __future__ import annotations
 
+import contextlib
 import csv
 import itertools
 import os
 import pickle
 import signal
+import threading
 import time
 import warnings
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -319,7 +321,8 @@ def _in_workers(cm, todo, settings, n, names, at) -> list[Run]:
                                initargs=(pickle.dumps(cm),))
     futures = []
     try:
-        futures = [pool.submit(_worker_run, case, settings) for case in todo]
+        with _workers_ignore_sigint():
+            futures = [pool.submit(_worker_run, case, settings) for case in todo]
         pending = set(futures)
         while pending:
             _, pending = wait(pending, timeout=POLL_SECONDS, return_when=FIRST_COMPLETED)
@@ -335,8 +338,25 @@ def _in_workers(cm, todo, settings, n, names, at) -> list[Run]:
     return runs
 
 
+@contextlib.contextmanager
+def _workers_ignore_sigint():
+    """While the pool spawns its workers (at the first submit), SIGINT is ignored in this process, so they
+    start with it ignored (a disposition kept across exec, and Python keeps it): a terminal's Ctrl-C, sent
+    to the whole process group, found a worker still importing and printed its traceback. (In another
+    thread than the main one the disposition cannot be changed: the workers ignore it once started.)"""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _stop(pool: ProcessPoolExecutor) -> None:
-    """Cancel the cases not started and end the worker processes now (not after their runs)."""
+    """Cancel the cases not started and end the worker processes now (not after their runs), then let the
+    pool release its queues (left open, their semaphores were reported leaked at exit)."""
     processes = list((getattr(pool, "_processes", None) or {}).values())
     pool.shutdown(wait=False, cancel_futures=True)
     for process in processes:
@@ -344,6 +364,7 @@ def _stop(pool: ProcessPoolExecutor) -> None:
             process.terminate()
     for process in processes:
         process.join(timeout=5.0)
+    pool.shutdown(wait=True)
 
 
 def _on_dask(cm, todo, settings, client, names, at) -> list[Run]:

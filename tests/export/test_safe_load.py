@@ -206,7 +206,13 @@ def test_load_library_checks_the_library(library, tmp_path):
         f.write(b"\0")                                  # still a library, not the one exported
     with pytest.raises(ExportError, match=rf"{name} does not match the SHA-256"):
         load_library(folder)
-    _tamper(folder, lambda r: r["sha256"].pop(name))    # one the user rebuilt: its digest removed
+    with pytest.raises(ExportError, match="loads once its entry is deleted from 'sha256'"):
+        load_library(folder)
+    for table in ("garbage", {name: "x"}):             # a malformed table is refused, as `load` refuses it
+        _tamper(folder, lambda r: r.__setitem__("sha256", table))
+        with pytest.raises(ExportError, match=r"sha256"):
+            load_library(folder)
+    _tamper(folder, lambda r: r.__setitem__("sha256", {}))  # one the user rebuilt: its digest removed
     assert "ode" in load_library(folder)
     _tamper(folder, lambda r: r["files"]["functions"].__setitem__("ode", "a; b"))
     with pytest.raises(ExportError, match=r"'files' must hold"):

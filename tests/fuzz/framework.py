@@ -143,9 +143,14 @@ def contains_nan(obj, depth: int = 0) -> bool:
         return any(contains_nan(v, depth + 1) for v in obj[:10000])
     if isinstance(obj, mn.Result):
         return contains_nan(obj.t, depth + 1) or contains_nan(np.asarray(obj.values, dtype=float), depth + 1)
-    rows = getattr(obj, "rows", None)             # Sweep, AccuracyStudy
-    if rows is not None and not callable(rows):
-        return contains_nan(list(rows), depth + 1)
+    rows = getattr(obj, "rows", None)             # Sweep, AccuracyStudy: a method giving the table
+    if rows is not None:
+        try:
+            table = rows() if callable(rows) else rows
+        except Exception:      # a table that cannot be read is judged by the object's fields below
+            table = None
+        if table is not None and contains_nan(list(table), depth + 1):
+            return True
     if hasattr(obj, "__dict__") and type(obj).__module__.startswith("mechnet"):
         return any(contains_nan(v, depth + 1) for v in vars(obj).values() if not callable(v))
     return False

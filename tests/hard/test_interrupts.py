@@ -12,6 +12,7 @@ sweep, the last iterate of an optimal control solve — nothing printed to stder
 and Python's own SIGINT handler back in place afterwards. Without a signal the runs are unaffected.
 """
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -43,17 +44,21 @@ def ready():
 """
 
 
-def interrupted_child(script: str, delay: float, timeout: float = 30.0) -> dict:
+def interrupted_child(script: str, delay: float, timeout: float = 30.0, group: bool = False) -> dict:
     """Run `script` in a child, send SIGINT `delay` s after it printed READY; the child's report (JSON,
-    its last line) with "latency": signal to exception in s."""
+    its last line) with "latency": signal to exception in s. `group`: to the child's whole process group,
+    as a terminal's Ctrl-C (its workers too)."""
     child = subprocess.Popen([sys.executable, "-c", PRELUDE + script], stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True, cwd=TESTS)
+                             stderr=subprocess.PIPE, text=True, cwd=TESTS, start_new_session=group)
     try:
         line = child.stdout.readline()
         assert line.strip() == "READY", f"child did not start: {line!r} {child.stderr.read()}"
         time.sleep(delay)
         sent = time.time()
-        child.send_signal(signal.SIGINT)
+        if group:
+            os.killpg(child.pid, signal.SIGINT)
+        else:
+            child.send_signal(signal.SIGINT)
         out, err = child.communicate(timeout=timeout)
     finally:
         if child.poll() is None:
@@ -168,6 +173,35 @@ if __name__ == "__main__":
     assert report["cases"] == [0, 1, 2, 3] and report["status"] == ["ok"] * 4
     assert report["workers_left"] == 0
     assert report["handler_restored"]
+
+
+SWEEP_IN_WORKERS = """
+import multiprocessing
+from models import oscillator
+if __name__ == "__main__":
+    cm = oscillator(c=mn.tunable(100.0)).compile()
+    long = {"rtol": 1e-12, "atol": 1e-14, "max_steps": 10**9}
+    cases = [{"params": {"spring.c": 100.0}}] * 4 + [{"params": {"spring.c": 1e8}, "settings": long}] * 4
+    ready()
+    try:
+        mn.sweep(cm, t_end=20.0, cases=cases, workers=2, outputs=["j1.phi"], progress=False)
+        report(finished=True)
+    except KeyboardInterrupt as exc:
+        rows = exc.result.rows()
+        report(kind=type(exc).__name__, cases=[r["case"] for r in rows], workers_left=len(
+            multiprocessing.active_children()))
+"""
+
+
+@pytest.mark.parametrize("delay", (0.3, 5.0), ids=("while-the-workers-start", "while-they-run"))
+def test_a_terminals_ctrl_c_reaches_the_workers_too_and_nothing_is_printed(delay):
+    """SIGINT to the whole process group (a terminal's Ctrl-C) while the spawned workers still import
+    mechnet, and while they run: the parent raises Interrupted within 1 s, no worker prints a traceback,
+    no semaphore is reported leaked (stderr stays empty: `interrupted_child`), no worker is left."""
+    report = interrupted_child(SWEEP_IN_WORKERS, delay=delay, group=True)
+    assert report.get("kind") == "Interrupted", report
+    assert report["latency"] < LATENCY
+    assert report["workers_left"] == 0
 
 
 def test_a_sweep_here_keeps_its_finished_rows():

@@ -299,7 +299,8 @@ static const char *rest_reason(const Instance *m, int k, Side s, int repeated) {
     double gd = m->rates[MN_NG + k], gdd = m->rates[2 * MN_NG + k];
     if (repeated) return "its reset leaves it crossing, so it fires again at the same instant";
     if (t_inf >= 0 && t_inf - m->t <= h) return "its events accumulate within the importer's step";
-    if (s.by_rate && s.side == -mn_zero_direction[k] && sign_of(gdd) == -sign_of(gd) && 2 * fabs(gd) <= fabs(gdd) * h)
+    if (s.by_rate && s.side == -mn_zero_direction[k] && sign_of(gdd) == -sign_of(gd)
+        && 2 * fabs(gd) <= fabs(gdd) * h)
         return "its rebound is shorter than the importer's step";
     return 0;
 }

@@ -292,5 +292,8 @@ def check_hashes(record: dict, members: dict, file: Path) -> None:
         if name not in hashes:
             c.fail("'sha256'", f"holds no digest of {name}, which the export wrote")
         if sha256(member) != hashes[name]:
+            rebuilt = (f"; a library rebuilt from the export's sources loads once its entry is deleted from "
+                       f"'sha256'" if Path(member).suffix == ".so" else "")
             raise ExportError(f"load: {member} does not match the SHA-256 model.json recorded for it at export: "
-                              f"the folder mixes two exports, or the file was changed since (export again)")
+                              f"the folder mixes two exports, or the file was changed since (export again)"
+                              f"{rebuilt}")

@@ -126,7 +126,8 @@ class _Rotation3D(PartialMultiJoint, abstract=True):
         "w_rel_a_start": ("rad/s", "start relative angular velocity resolved in frame_a; sets w_rel_start"),
     }
 
-    def __init__(self, name: str | None = None, R_rel_start=None, axis_start=None, angle_start=None, w_rel_a_start=None, **kwargs):
+    def __init__(self, name: str | None = None, R_rel_start=None, axis_start=None, angle_start=None,
+                 w_rel_a_start=None, **kwargs):
         label = f"{name} ({type(self).__name__})"
         given = [k for k, v in (("Q_start", kwargs.get("Q_start")), ("R_rel_start", R_rel_start),
                                 ("axis_start", axis_start)) if v is not None]
