@@ -64,7 +64,7 @@ def write_fmu(fns: dict, path: Path, fmi: int, overwrite: bool = False,
         sources = root / "sources"
         sources.mkdir()
         rests = tuple(f for f in fns["rest"] if f is not None)
-        generate_c({**fns, "zero_rates": zero_rates_function(fns)}, sources, ident, CALLED, rests)
+        generate_c({**fns, "zero_rates": zero_rates_function(fns, meta)}, sources, ident, CALLED, rests)
         (sources / "model_data.h").write_text(model_data(meta, variables, ident, len(fns["transition"]), fmi,
                                                          [f is not None for f in fns["rest"]]))
         shutil.copy(resources.files(__package__) / WRAPPER, sources / WRAPPER)
@@ -122,16 +122,20 @@ def _c_string(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ") + '"'
 
 
-def zero_rates_function(fns: dict) -> ca.Function:
-    """(t, x, z, u, p, d) -> [g; ġ; g̈]: the wrapper reads a condition's side on its boundary from its rates,
-    as the simulator does (`core/events.py`). In SX where the contract's functions allow it."""
-    from ..simulate.state_events import lie_rates
+def zero_rates_function(fns: dict, meta: dict) -> ca.Function:
+    """(t, x, z, u, p, d) -> [g; ġ; g̈; their round-off]: the wrapper reads a condition's side on its
+    boundary from its rates, and takes one within the round-off of the states in value and rates as at rest
+    there, as the simulator does (`core/events.py`, `state_events._at_rest`). In SX where it can be."""
+    from ..simulate.state_events import lie_rates, round_off
+    nominal = {k: [v["nominal"] for v in meta[k]] for k in ("x", "z")}
     with BUILD_LOCK:
         for sym in (ca.SX, ca.MX):
             try:
                 args = [sym.sym(n, *fns["zero"].size_in(k)) for k, n in enumerate(ARGS)]
                 rates = lie_rates(fns["ode"], fns["alg"], fns["zero"], args)
-                return ca.Function("zero_rates", args, [rates], list(ARGS), ["rates"])
+                noise = round_off(rates, args, nominal["x"], nominal["z"])
+                return ca.Function("zero_rates", args, [ca.densify(ca.vertcat(rates, noise))], list(ARGS),
+                                   ["rates"])
             except (RuntimeError, NotImplementedError, TypeError):
                 if sym is ca.MX:
                     raise

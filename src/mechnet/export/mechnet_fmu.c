@@ -58,9 +58,10 @@ typedef struct {
     double x[MN_NX + 1], xdot[MN_NX + 1], z[MN_NZ + 1], z_accepted[MN_NZ + 1];
     double u[MN_NU + 1], p[MN_NP + 1], d[MN_ND + 1], s[MN_NS + 1];
     double y[MN_NY + 1], g[MN_NG + 1], armed[MN_NG + 1];
-    double rates[3 * MN_NG + 1];                /* [g; dg/dt; d2g/dt2] at the present point, when asked */
+    double rates[6 * MN_NG + 1];                /* [g; dg/dt; d2g/dt2; their round-off] here, when asked */
     int event_rounds;                           /* discrete-state updates since the event mode began */
     unsigned char fired_now[MN_NG + 1];         /* conditions fired since the event mode began */
+    double near[MN_NG + 1];                     /* how far from 0 each counts as on its boundary at this instant */
     double event_times[MN_NG + 1][4];           /* each condition's last four event times, newest last */
     int n_event_times[MN_NG + 1];
     double t_step, h_step;                      /* the last completed integrator step: its end and length */
@@ -238,12 +239,16 @@ static double location_tolerance(double t) { return 1e-12 * (fabs(t) > 1 ? fabs(
 static int fresh_rates(Instance *m) { return ensure(m, &m->need_rates, F_ZERO_RATES, m->rates); }
 
 /* the side of condition k at the present point (fresh rates); `near`: how far from 0 it still counts as on
- * its boundary (after its own event: where the importer located it) */
+ * its boundary (after its own event: where the importer located it). Within the round-off of the states
+ * in its value and both rates it rests on its boundary (two pendulums hanging at rest, touching), and
+ * within that of its value it is on its boundary */
 static Side side_of(const Instance *m, int k, double near) {
     double g = m->rates[k], gd = m->rates[MN_NG + k], gdd = m->rates[2 * MN_NG + k];
-    double tol = location_tolerance(m->t);
+    double noise = m->rates[3 * MN_NG + k], tol = location_tolerance(m->t);
     Side s;
-    s.on = g == 0 || fabs(g) <= fabs(gd) * tol || fabs(g) <= near;
+    if (fabs(g) <= noise && fabs(gd) <= m->rates[4 * MN_NG + k] && fabs(gdd) <= m->rates[5 * MN_NG + k])
+        g = gd = gdd = 0;
+    s.on = g == 0 || fabs(g) <= fabs(gd) * tol || fabs(g) <= near || fabs(g) <= noise;
     s.by_rate = fabs(gd) > fabs(gdd) * tol;
     s.side = !s.on ? sign_of(g) : (s.by_rate ? sign_of(gd) : sign_of(gdd));
     return s;
@@ -344,20 +349,21 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
     int k, st, fired = 0, last = 0;
     signed char fired_here[MN_NG + 1];
     unsigned char earlier[MN_NG + 1];
-    double before[MN_NG + 1], near[MN_NG + 1];
+    double before[MN_NG + 1];
     *values_changed = 0;
     *needs_more = 0;
     if (MN_NG == 0) return ST_OK;
     if ((st = fresh_rates(m)) != ST_OK) return st;
     for (k = 0; k < MN_NG; k++) {
-        Side s = side_of(m, k, 0);
+        Side s = side_of(m, k, m->near[k]);
         fired_here[k] = 0;
         before[k] = m->armed[k];
         earlier[k] = m->fired_now[k];
         /* one the importer located (found in the first round, reaching its boundary at speed) counts as on
          * its boundary within what it was located to; one a reset threw across does not (a cascade) */
-        near[k] = m->event_rounds == 0 && s.by_rate && s.side == mn_zero_direction[k]
-            ? 2 * fmax(fabs(m->rates[k]), fabs(m->rates[MN_NG + k]) * location_tolerance(m->t)) : 0;
+        if (m->event_rounds == 0 && s.by_rate && s.side == mn_zero_direction[k])   /* kept over the rounds */
+            m->near[k] = fmax(m->near[k], 2 * fmax(fabs(m->rates[k]), fabs(m->rates[MN_NG + k])
+                                                   * location_tolerance(m->t)));
         if (!crosses(mn_zero_direction[k], m->armed[k], s.side)) {
             if (s.side != 0) m->armed[k] = s.side;     /* moved the other way, or stayed */
             continue;
@@ -393,7 +399,7 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
         Side s;
         const char *why;
         if (!fired_here[k]) continue;
-        s = side_of(m, k, near[k]);
+        s = side_of(m, k, m->near[k]);
         why = mn_rests[k].eval ? rest_reason(m, k, s, earlier[k] && fires_again(mn_zero_direction[k], s)) : 0;
         if (why) {
             if ((st = come_to_rest(m, k, why)) != ST_OK) return st;
@@ -582,6 +588,7 @@ static int enter_event_mode(Instance *m) {
     m->mode = MODE_EVENT;
     m->event_rounds = 0;
     memset(m->fired_now, 0, sizeof m->fired_now);
+    memset(m->near, 0, sizeof m->near);
     return ST_OK;
 }
 

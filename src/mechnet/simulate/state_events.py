@@ -179,19 +179,24 @@ def lie_rates(ode, alg, zero, args):
 
 def _zero_rates(dae, sym):
     args = [sym.sym(n, v.shape) for n, v in zip("txzupd", (dae.t, dae.x, dae.z, dae.u, dae.p, dae.d))]
-    x, z = args[1:3]
     g = dae.zero(*args)
     rates = lie_rates(dae.ode, dae.alg, dae.zero, args)
-    eps = 4 * np.finfo(float).eps
-
-    def round_off(e):
-        out = ca.mtimes(ca.fabs(ca.jacobian(e, x)), eps * ca.fmax(ca.fabs(x), ca.DM(dae.x_nominal)))
-        if z.numel():
-            out = out + ca.mtimes(ca.fabs(ca.jacobian(e, z)), eps * ca.fmax(ca.fabs(z), ca.DM(dae.z_nominal)))
-        return out
+    noise = round_off(rates, args, dae.x_nominal, dae.z_nominal)
+    m = g.numel()
     return (ca.Function("zero_rates", args, [rates]),
-            ca.Function("zero_rates_noise", args, [ca.densify(ca.vertcat(rates, round_off(g)))]),
-            ca.Function("zero_rates_round_off", args, [ca.densify(round_off(rates[g.numel():]))]))
+            ca.Function("zero_rates_noise", args, [ca.densify(ca.vertcat(rates, noise[:m]))]),
+            ca.Function("zero_rates_round_off", args, [ca.densify(noise[m:])]))
+
+
+def round_off(e, args, x_nominal, z_nominal):
+    """How far e may sit from its value by the round-off of the states alone: a few ulps of each state at
+    its scale, max(|x|, nominal), through |∂e/∂x| and |∂e/∂z| (`_at_rest`)."""
+    x, z = args[1:3]
+    eps = 4 * np.finfo(float).eps
+    out = ca.mtimes(ca.fabs(ca.jacobian(e, x)), eps * ca.fmax(ca.fabs(x), ca.DM(x_nominal)))
+    if z.numel():
+        out = out + ca.mtimes(ca.fabs(ca.jacobian(e, z)), eps * ca.fmax(ca.fabs(z), ca.DM(z_nominal)))
+    return out
 
 
 def _cubic_extrema(g_a, d_a, g_b, d_b, h):
