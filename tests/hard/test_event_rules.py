@@ -63,6 +63,14 @@ def test_crossings(name, direction, before, after, expected):
     assert bool(simulator[0]) is expected
 
 
+def test_coming_to_rest_on_the_boundary_does_not_fire():
+    """Judged by sides: a contact left touching at rest by an impact (side 0) does not strike again; one
+    landing on it at speed does (side −1, falling)."""
+    assert not ev.fires(ev.FALLING, 1, ev.side(0.0, 0.0, 0.0, 0.25)[0])
+    assert ev.fires(ev.FALLING, 1, ev.side(0.0, -2.49, 0.0, 0.25)[0])
+    assert not ev.fires(ev.RISING, -1, 0)
+
+
 def test_a_reset_that_leaves_a_ball_held_into_the_floor_fires_again():
     """v → −e·0 leaves the ball on the floor with ġ = 0 and g̈ = −g: it crosses again (an accumulation its
     rest ends); thrown back up with speed it has left; a sensor going on across has completed its crossing."""

@@ -13,7 +13,8 @@ A condition g of a `When` is *armed* with a side, +1 or −1 (0: resting on its 
   boundary: a ball landed exactly on the floor and thrown back up by its impact is above it.
 - **A crossing** is a change of side in the condition's direction (`crosses`): falling from + to −
   or onto 0, rising from − to + or onto 0; "both" either way. From side 0 only a directional condition
-  crosses, by leaving its boundary into its direction.
+  crosses, by leaving its boundary into its direction. Judged by sides, it fires only onto a side
+  (`fires`): coming to rest on its boundary is no crossing.
 - **After a reset**, the fired condition takes the side the reset leaves it on (`side` again). One the
   reset leaves on its boundary held there by g̈ alone (ġ = 0, g̈ pushing it across) crosses again at the
   same instant (`fires_again`): repeated from the same state, that is an accumulation, and the condition's
@@ -56,6 +57,13 @@ def crosses(direction: int, before: int, after: float) -> bool:
     if before < 0:
         return after >= 0 and direction >= 0
     return after != 0 and direction != 0 and _sign(after) == direction
+
+
+def fires(direction: int, before: int, side_now: int) -> bool:
+    """Does a condition armed on `before` fire on reaching side `side_now` (`side`): a crossing onto a
+    side. One that comes to rest on its boundary (side 0) has not crossed: after a cradle's impact two
+    pendulums are left touching at rest, and their contact does not strike again."""
+    return side_now != 0 and crosses(direction, before, side_now)
 
 
 def fires_again(direction: int, after: tuple[int, bool, bool]) -> bool:

@@ -262,6 +262,10 @@ static int crosses(int direction, double before, int after) {
     return after != 0 && direction != 0 && after == direction;
 }
 
+/* armed on `before`, it fires on reaching side `after`: a crossing onto a side, never one that comes to rest
+ * on its boundary (side 0: pendulums left touching at rest by an impact) */
+static int fires(int direction, double before, int after) { return after != 0 && crosses(direction, before, after); }
+
 /* left by its own reset on its boundary, held into its direction by d2g/dt2 alone: it crosses again */
 static int fires_again(int direction, Side s) { return s.on && !s.by_rate && direction != 0 && s.side == direction; }
 
@@ -364,7 +368,7 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
         if (m->event_rounds == 0 && s.by_rate && s.side == mn_zero_direction[k])   /* kept over the rounds */
             m->near[k] = fmax(m->near[k], 2 * fmax(fabs(m->rates[k]), fabs(m->rates[MN_NG + k])
                                                    * location_tolerance(m->t)));
-        if (!crosses(mn_zero_direction[k], m->armed[k], s.side)) {
+        if (!fires(mn_zero_direction[k], m->armed[k], s.side)) {
             if (s.side != 0) m->armed[k] = s.side;     /* moved the other way, or stayed */
             continue;
         }
@@ -658,7 +662,7 @@ static int completed_step(Instance *m, int *enter_event) {
     if ((st = fresh_rates(m)) != ST_OK) return st;
     for (k = 0; k < MN_NG; k++) {
         Side s = side_of(m, k, 0);
-        if (crosses(mn_zero_direction[k], m->armed[k], s.side)) *enter_event = 1;
+        if (fires(mn_zero_direction[k], m->armed[k], s.side)) *enter_event = 1;
         else if (s.side != 0) m->armed[k] = s.side;
     }
     return ST_OK;
