@@ -344,11 +344,12 @@ static int arm(Instance *m) {
     return ST_OK;
 }
 
-/* the discrete-state update (one round of FMI's event iteration): every condition that crossed in its
- * direction since it was armed fires, in index order, each transition seeing the resets before it. A fired
- * condition takes the side its reset leaves it on; one left crossing fires again (twice from the same
- * instant: an accumulation its rest ends). The others keep their side, so the next round sees a condition
- * these resets threw across (a cascade). A round that fires nothing arms every condition on its side. */
+/* the discrete-state update (one round of FMI's event iteration): the first condition (in index order) that
+ * crossed in its direction since it was armed fires, and takes the side its reset leaves it on; one left
+ * crossing fires again (twice from the same instant: an accumulation its rest ends). The others keep their
+ * side, so the next round sees a condition the reset threw across (a cascade: a cradle's impacts passing
+ * along the row, each contact judged after the impact before it, so one thrown back into its neighbour
+ * strikes again). A round that fires nothing arms every condition on its side. */
 static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
     int k, st, fired = 0, last = 0;
     signed char fired_here[MN_NG + 1];
@@ -358,9 +359,9 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
     *needs_more = 0;
     if (MN_NG == 0) return ST_OK;
     if ((st = fresh_rates(m)) != ST_OK) return st;
+    memset(fired_here, 0, sizeof fired_here);
     for (k = 0; k < MN_NG; k++) {
         Side s = side_of(m, k, m->near[k]);
-        fired_here[k] = 0;
         before[k] = m->armed[k];
         earlier[k] = m->fired_now[k];
         /* one the importer located (found in the first round, reaching its boundary at speed) counts as on
@@ -386,6 +387,7 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
         fired++;
         last = k;
         if (m->logging) logf_(m, ST_OK, "logEvents", "t = %.17g: %s", m->t, mn_zero_labels[k]);
+        break;      /* one firing per round: each condition is judged after the resets before it */
     }
     if (!fired) return arm(m);
     if (++m->event_rounds > MN_MAX_EVENT_ROUNDS) {
