@@ -98,3 +98,28 @@ def test_flight_time_of_a_rebound():
     """Thrown up at 1 m/s under g = 9.81 m/s²: back after 2/9.81 s; pushed on by g̈: never."""
     assert ev.flight_time(1.0, -9.81) == pytest.approx(2 / 9.81, rel=1e-15)
     assert ev.flight_time(1.0, 9.81) == math.inf and ev.flight_time(0.0, -9.81) == math.inf
+
+
+def test_a_rebound_euler_cannot_let_decay_rests():
+    """Euler at h = 1 ms keeps a ball (e = 0.8) bouncing at 0.198 → 0.158 m/s (measured in FMPy: the
+    impact takes 0.04 m/s, what the step adds back over a 32-step flight): it rests. The first impact from
+    1 m (4.43 → 3.54 m/s) does not, nor a rebound whose flight lasts hundreds of steps."""
+    assert ev.rests_under_fixed_steps(-0.198, 0.158, -9.81, 1e-3)
+    assert not ev.rests_under_fixed_steps(-4.43, 3.54, -9.81, 1e-3)
+    assert not ev.rests_under_fixed_steps(-0.2, 0.19, -9.81, 1e-4)
+
+
+def test_the_fmu_wrapper_keeps_the_rules_constants():
+    """The C wrapper states the rules' constants again (it has no Python): they are the same numbers."""
+    import re
+    from pathlib import Path
+
+    import mechnet.export
+    source = (Path(mechnet.export.__file__).parent / "mechnet_fmu.c").read_text()
+
+    def define(name):
+        return float(re.search(rf"#define {name} ([0-9.eE+-]+)", source).group(1))
+    assert define("MN_FIXED_STEP_GAIN") == ev.FIXED_STEP_GAIN
+    assert define("MN_FIXED_STEP_FLIGHT") == ev.FIXED_STEP_FLIGHT
+    assert f"fabs(r2 - r1) <= {ev.GEOMETRIC_SPREAD} * r" in source
+    assert "1e-12 * (fabs(t) > 1 ? fabs(t) : 1)" in source and ev.location_tolerance(0.5) == 1e-12

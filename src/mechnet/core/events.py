@@ -19,6 +19,8 @@ A condition g of a `When` is *armed* with a side, +1 or −1 (0: resting on its 
   reset leaves on its boundary held there by g̈ alone (ġ = 0, g̈ pushing it across) crosses again at the
   same instant (`fires_again`): repeated from the same state, that is an accumulation, and the condition's
   rest transition ends it (a ball at rest).
+- **Under fixed steps** (an FMU importer that sees events only at its steps' ends), a rebound whose
+  impact takes less speed than the step's error adds back rests (`rests_under_fixed_steps`).
 - **Accumulation**: the events of one condition whose last three gaps shrink by a consistent ratio
   r < 1 accumulate at T∞ = t + gap·r/(1 − r) (`accumulation_time`); when what remains is shorter than
   what the integration can resolve, the rest transition ends them (`rests`).
@@ -105,6 +107,19 @@ def flight_time(gd: float, gdd: float) -> float:
     if gd == 0 or gdd == 0 or _sign(gd) == _sign(gdd):
         return math.inf
     return 2 * abs(gd) / abs(gdd)
+
+
+FIXED_STEP_GAIN = 5.0      # |g̈|·h: the speed a fixed (Euler) step's error adds back over a flight (~4)
+FIXED_STEP_FLIGHT = 50.0   # steps of a rebound's flight up to which that error matters
+
+
+def rests_under_fixed_steps(gd_before: float, gd_after: float, gdd: float, h: float) -> bool:
+    """Under an importer's fixed step h (one that does not locate events: it sees them at a step's end),
+    an impact whose rebound takes less speed (|ġ| before less after) than the step's error adds back over
+    a flight of a few dozen steps never decays: Euler's bouncing ball settles into bounces of constant
+    height. Such a rebound rests (the FMU wrapper; the simulator locates every event)."""
+    return (abs(gd_before) - abs(gd_after) <= FIXED_STEP_GAIN * abs(gdd) * h
+            and flight_time(gd_after, gdd) <= FIXED_STEP_FLIGHT * h)
 
 
 def _sign(v: float) -> int:

@@ -22,6 +22,8 @@
 #define EXPORT __attribute__((visibility("default")))
 #define MN_MAX_EVENT_ROUNDS 100 /* discrete-state updates at one time before the events count as chattering */
 #define MN_QUALITY_MIN 1e-3     /* conditioning below which the dependent coordinates count as singular */
+#define MN_FIXED_STEP_GAIN 5.0  /* |d2g/dt2|·h: speed a fixed step's error adds per flight (Euler: ~4) */
+#define MN_FIXED_STEP_FLIGHT 50.0   /* steps of a rebound's flight up to which that error matters */
 
 typedef int (*mn_eval_t)(const casadi_real**, casadi_real**, casadi_int*, casadi_real*, int);
 typedef int (*mn_work_t)(casadi_int*, casadi_int*, casadi_int*, casadi_int*);
@@ -65,6 +67,7 @@ typedef struct {
     double event_times[MN_NG + 1][4];           /* each condition's last four event times, newest last */
     int n_event_times[MN_NG + 1];
     double t_step, h_step;                      /* the last completed integrator step: its end and length */
+    int stepped_over;                           /* this event was seen at a step's end, not located: fixed steps */
     int need_z, need_xdot, need_y, need_g, need_rates, need_init;
     int branch_sign;                /* sign of det(d alg / d z) on the assembly branch of the start */
     int mem[N_CALLED + 1];
@@ -302,15 +305,20 @@ static double accumulation_time(const Instance *m, int k) {
 }
 
 /* should condition k's events end in its rest: they repeat from the same state at this instant, or
- * accumulate within the importer's step, or its rebound is shorter than that step (2|dg/dt|/|d2g/dt2|) */
-static const char *rest_reason(const Instance *m, int k, Side s, int repeated) {
+ * accumulate within the importer's step, or its rebound (off its boundary for 2|dg/dt|/|d2g/dt2|) is shorter
+ * than that step; under fixed steps (an importer that does not locate events), also when the impact takes
+ * less speed (|dg/dt| before, `gd_before`, less after) than the step's own error adds back over a flight of
+ * a few dozen steps, |d2g/dt2|·h each: Euler gains that much, and the bounces never decay */
+static const char *rest_reason(const Instance *m, int k, Side s, int repeated, double gd_before) {
     double h = importer_step(m), t_inf = accumulation_time(m, k);
     double gd = m->rates[MN_NG + k], gdd = m->rates[2 * MN_NG + k];
+    int rebound = s.by_rate && s.side == -mn_zero_direction[k] && sign_of(gdd) == -sign_of(gd);
     if (repeated) return "its reset leaves it crossing, so it fires again at the same instant";
     if (t_inf >= 0 && t_inf - m->t <= h) return "its events accumulate within the importer's step";
-    if (s.by_rate && s.side == -mn_zero_direction[k] && sign_of(gdd) == -sign_of(gd)
-        && 2 * fabs(gd) <= fabs(gdd) * h)
-        return "its rebound is shorter than the importer's step";
+    if (rebound && 2 * fabs(gd) <= fabs(gdd) * h) return "its rebound is shorter than the importer's step";
+    if (rebound && m->stepped_over && fabs(gd_before) - fabs(gd) <= MN_FIXED_STEP_GAIN * fabs(gdd) * h
+        && 2 * fabs(gd) <= MN_FIXED_STEP_FLIGHT * fabs(gdd) * h)
+        return "its rebound loses less speed than the importer's fixed step adds back over its flight";
     return 0;
 }
 
@@ -354,7 +362,7 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
     int k, st, fired = 0, last = 0;
     signed char fired_here[MN_NG + 1];
     unsigned char earlier[MN_NG + 1];
-    double before[MN_NG + 1];
+    double before[MN_NG + 1], gd_before[MN_NG + 1];
     *values_changed = 0;
     *needs_more = 0;
     if (MN_NG == 0) return ST_OK;
@@ -363,6 +371,7 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
     for (k = 0; k < MN_NG; k++) {
         Side s = side_of(m, k, m->near[k]);
         before[k] = m->armed[k];
+        gd_before[k] = m->rates[MN_NG + k];
         earlier[k] = m->fired_now[k];
         /* one the importer located (found in the first round, reaching its boundary at speed) counts as on
          * its boundary within what it was located to; one a reset threw across does not (a cascade) */
@@ -389,7 +398,10 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
         if (m->logging) logf_(m, ST_OK, "logEvents", "t = %.17g: %s", m->t, mn_zero_labels[k]);
         break;      /* one firing per round: each condition is judged after the resets before it */
     }
-    if (!fired) return arm(m);
+    if (!fired) {
+        m->stepped_over = 0;
+        return arm(m);
+    }
     if (++m->event_rounds > MN_MAX_EVENT_ROUNDS) {
         logf_(m, ST_ERROR, "logStatusError", "t = %.17g: events keep firing after %d rounds of discrete-state "
               "updates at the same time (the last: %s); the conditions chatter", m->t, MN_MAX_EVENT_ROUNDS,
@@ -406,7 +418,8 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
         const char *why;
         if (!fired_here[k]) continue;
         s = side_of(m, k, m->near[k]);
-        why = mn_rests[k].eval ? rest_reason(m, k, s, earlier[k] && fires_again(mn_zero_direction[k], s)) : 0;
+        why = mn_rests[k].eval ? rest_reason(m, k, s, earlier[k] && fires_again(mn_zero_direction[k], s),
+                                             gd_before[k]) : 0;
         if (why) {
             if ((st = come_to_rest(m, k, why)) != ST_OK) return st;
         } else if (fires_again(mn_zero_direction[k], s)) {
@@ -664,7 +677,12 @@ static int completed_step(Instance *m, int *enter_event) {
     if ((st = fresh_rates(m)) != ST_OK) return st;
     for (k = 0; k < MN_NG; k++) {
         Side s = side_of(m, k, 0);
-        if (fires(mn_zero_direction[k], m->armed[k], s.side)) *enter_event = 1;
+        if (fires(mn_zero_direction[k], m->armed[k], s.side)) {
+            *enter_event = 1;
+            /* well past its boundary (not where a root finder leaves it, within ~1e-9 s): stepped over */
+            if (fabs(m->rates[k]) > fabs(m->rates[MN_NG + k]) * 1e-9 * (fabs(m->t) > 1 ? fabs(m->t) : 1))
+                m->stepped_over = 1;
+        }
         else if (s.side != 0) m->armed[k] = s.side;
     }
     return ST_OK;
