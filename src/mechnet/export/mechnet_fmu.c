@@ -354,10 +354,11 @@ static int arm(Instance *m) {
 
 /* the discrete-state update (one round of FMI's event iteration): the first condition (in index order) that
  * crossed in its direction since it was armed fires, and takes the side its reset leaves it on; one left
- * crossing fires again (twice from the same instant: an accumulation its rest ends). The others keep their
- * side, so the next round sees a condition the reset threw across (a cascade: a cradle's impacts passing
- * along the row, each contact judged after the impact before it, so one thrown back into its neighbour
- * strikes again). A round that fires nothing arms every condition on its side. */
+ * crossing fires again (twice from the same instant: an accumulation its rest ends). Others crossing too
+ * keep their side and are judged again after the reset; the rest take the side they are on before it, so
+ * the next round sees a condition the reset threw across (a cascade: a cradle's impacts passing along the
+ * row, each contact judged after the impact before it, so one thrown back into its neighbour strikes
+ * again). A round that fires nothing arms every condition on its side. */
 static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
     int k, st, fired = 0, last = 0;
     signed char fired_here[MN_NG + 1];
@@ -382,6 +383,7 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
             if (s.side != 0) m->armed[k] = s.side;     /* moved the other way, or stayed */
             continue;
         }
+        if (fired) continue;        /* crossing too: judged again after this round's reset */
         {
             double x_plus[MN_NX + 1], d_plus[MN_ND + 1];
             const double *in[6] = {&m->t, m->x, m->z, m->u, m->p, m->d};
@@ -396,7 +398,6 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
         fired++;
         last = k;
         if (m->logging) logf_(m, ST_OK, "logEvents", "t = %.17g: %s", m->t, mn_zero_labels[k]);
-        break;      /* one firing per round: each condition is judged after the resets before it */
     }
     if (!fired) {
         m->stepped_over = 0;
