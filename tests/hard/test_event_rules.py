@@ -107,6 +107,7 @@ def test_a_rebound_euler_cannot_let_decay_rests():
     assert ev.rests_under_fixed_steps(-0.198, 0.158, -9.81, 1e-3)
     assert not ev.rests_under_fixed_steps(-4.43, 3.54, -9.81, 1e-3)
     assert not ev.rests_under_fixed_steps(-0.2, 0.19, -9.81, 1e-4)
+    assert not ev.rests_under_fixed_steps(-0.198, 0.198, -9.81, 1e-3)     # e = 1: nothing lost, never rests
 
 
 def test_the_fmu_wrapper_keeps_the_rules_constants():

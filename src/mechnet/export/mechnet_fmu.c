@@ -305,19 +305,22 @@ static double accumulation_time(const Instance *m, int k) {
 }
 
 /* should condition k's events end in its rest: they repeat from the same state at this instant, or
- * accumulate within the importer's step, or its rebound (off its boundary for 2|dg/dt|/|d2g/dt2|) is shorter
- * than that step; under fixed steps (an importer that does not locate events), also when the impact takes
- * less speed (|dg/dt| before, `gd_before`, less after) than the step's own error adds back over a flight of
- * a few dozen steps, |d2g/dt2|·h each: Euler gains that much, and the bounces never decay */
+ * accumulate (gaps shrinking geometrically) within the importer's step, or a rebound that loses speed is
+ * shorter than that step; under fixed steps (an importer that does not locate events, `stepped_over`) also
+ * one that loses less than the step's own error adds back over a flight of a few dozen steps (|d2g/dt2|·h
+ * each: Euler gains that much, and the bounces never decay). A rebound that keeps its speed (e = 1) never
+ * rests. */
 static const char *rest_reason(const Instance *m, int k, Side s, int repeated, double gd_before) {
     double h = importer_step(m), t_inf = accumulation_time(m, k);
-    double gd = m->rates[MN_NG + k], gdd = m->rates[2 * MN_NG + k];
-    int rebound = s.by_rate && s.side == -mn_zero_direction[k] && sign_of(gdd) == -sign_of(gd);
+    double gd = m->rates[MN_NG + k], gdd = m->rates[2 * MN_NG + k], loss = fabs(gd_before) - fabs(gd);
+    int rebound = s.by_rate && s.side == -mn_zero_direction[k] && sign_of(gdd) == -sign_of(gd)
+        && loss > 1e-12 * fabs(gd_before);
     if (repeated) return "its reset leaves it crossing, so it fires again at the same instant";
     if (t_inf >= 0 && t_inf - m->t <= h) return "its events accumulate within the importer's step";
-    if (rebound && 2 * fabs(gd) <= fabs(gdd) * h) return "its rebound is shorter than the importer's step";
-    if (rebound && m->stepped_over && fabs(gd_before) - fabs(gd) <= MN_FIXED_STEP_GAIN * fabs(gdd) * h
-        && 2 * fabs(gd) <= MN_FIXED_STEP_FLIGHT * fabs(gdd) * h)
+    if (!rebound) return 0;
+    /* a root finder sees only a sign change between its steps: a bounce within one step is lost to it */
+    if (2 * fabs(gd) <= fabs(gdd) * h) return "its rebound is shorter than the importer's step";
+    if (m->stepped_over && loss <= MN_FIXED_STEP_GAIN * fabs(gdd) * h && 2 * fabs(gd) <= MN_FIXED_STEP_FLIGHT * fabs(gdd) * h)
         return "its rebound loses less speed than the importer's fixed step adds back over its flight";
     return 0;
 }
@@ -328,7 +331,11 @@ static int come_to_rest(Instance *m, int k, const char *why) {
     const double *in[6] = {&m->t, m->x, m->z, m->u, m->p, m->d};
     double *out[2] = {x_plus, d_plus};
     int st;
-    mn_call(m, mn_rests[k].eval, m->mem[F_COUNT + MN_NT + k], in, 6, out, 2);
+    if (mn_call(m, mn_rests[k].eval, m->mem[F_COUNT + MN_NT + k], in, 6, out, 2)) {
+        logf_(m, ST_ERROR, "logStatusError", "t = %.17g: %s: its rest (a plastic jump) could not be evaluated",
+              m->t, mn_zero_labels[k]);
+        return ST_ERROR;
+    }
     memcpy(m->x, x_plus, sizeof(double) * MN_NX);
     memcpy(m->d, d_plus, sizeof(double) * MN_ND);
     changed(m);
@@ -388,7 +395,11 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
             double x_plus[MN_NX + 1], d_plus[MN_ND + 1];
             const double *in[6] = {&m->t, m->x, m->z, m->u, m->p, m->d};
             double *out[2] = {x_plus, d_plus};
-            mn_call(m, mn_transitions[k].eval, m->mem[F_COUNT + k], in, 6, out, 2);
+            if (mn_call(m, mn_transitions[k].eval, m->mem[F_COUNT + k], in, 6, out, 2)) {
+                logf_(m, ST_ERROR, "logStatusError", "t = %.17g: %s: its transition (the jump at the event) "
+                      "could not be evaluated", m->t, mn_zero_labels[k]);
+                return ST_ERROR;
+            }
             memcpy(m->x, x_plus, sizeof(double) * MN_NX);
             memcpy(m->d, d_plus, sizeof(double) * MN_ND);
         }
@@ -642,6 +653,7 @@ static int exit_init(Instance *m) {
     if ((st = ensure_init(m)) != ST_OK) return st;
     m->t_step = m->t;
     m->h_step = 0;
+    m->stepped_over = 0;
     memset(m->n_event_times, 0, sizeof m->n_event_times);
     if (MN_NG && (st = fresh_rates(m)) != ST_OK) return st;
     /* every condition on its side; one on its boundary leaving it into its direction crosses now (a ball
@@ -680,8 +692,10 @@ static int completed_step(Instance *m, int *enter_event) {
         Side s = side_of(m, k, 0);
         if (fires(mn_zero_direction[k], m->armed[k], s.side)) {
             *enter_event = 1;
-            /* well past its boundary (not where a root finder leaves it, within ~1e-9 s): stepped over */
-            if (fabs(m->rates[k]) > fabs(m->rates[MN_NG + k]) * 1e-9 * (fabs(m->t) > 1 ? fabs(m->t) : 1))
+            /* reached at speed and well past its boundary (not where a root finder leaves it, within ~1e-9 s
+             * at that speed): the importer stepped over it */
+            if (s.by_rate && !s.on && fabs(m->rates[k]) > m->rates[3 * MN_NG + k]
+                && fabs(m->rates[k]) > fabs(m->rates[MN_NG + k]) * 1e-9 * (fabs(m->t) > 1 ? fabs(m->t) : 1))
                 m->stepped_over = 1;
         }
         else if (s.side != 0) m->armed[k] = s.side;
