@@ -169,3 +169,22 @@ def test_a_crossing_an_importer_stepped_over_asks_for_event_mode(exported, fmi):
         assert run.get("contact.mode") == 0.0
     finally:
         run.close()
+
+
+@pytest.mark.parametrize("fmi", (2, 3))
+def test_friction_pushed_past_its_static_limit_breaks_away_at_the_start(tmp_path, fmi):
+    """tests/models.py stick_slip_block: a block held by friction (static limit 0.3·9.81 = 2.94 N) and pushed
+    with 5 N from the start: its `at_start` breakaway condition is past zero in its direction, so it fires in
+    the first update — sliding forward (mode +1) in the FMU as in the simulator (an event at t = 0); a push of
+    2 N (within the limit) keeps it stuck (mode 0) in both."""
+    from models import stick_slip_block
+    for push, mode in ((5.0, 1.0), (2.0, 0.0)):
+        cm = stick_slip_block(push=push).compile()
+        native = cm.simulate(1e-3, t_out=[0.0, 1e-3])
+        assert native["fr.mode"][-1] == mode
+        assert [e.kind for e in native.events if e.t == 0.0] == (["state"] if mode else [])
+        run = Driven(cm.export(tmp_path / f"block{push:g}_{fmi}.fmu", kind="fmu", fmi=fmi), fmi)
+        try:
+            assert run.get("fr.mode") == mode
+        finally:
+            run.close()
