@@ -15,7 +15,7 @@ from typing import Optional
 
 import numpy as np
 
-from .core.declarations import finite_number, not_a_number
+from .core.declarations import finite_number, number_array
 from .core.errors import ParameterError
 
 
@@ -56,9 +56,7 @@ def _array(value, shape: tuple, what: str) -> np.ndarray:
     """`value` as finite numbers of `shape` (a tensor 3x3 or 9, a vector 3), else a ParameterError naming
     it: numpy's reshape error, or eigh failing on a NaN, named nothing (fuzz, issue 32)."""
     try:
-        if not_a_number(value) or any(not_a_number(v) for v in np.ravel(np.array(value, dtype=object))):
-            raise TypeError
-        arr = np.asarray(value, dtype=float)
+        arr = number_array(value)
     except (TypeError, ValueError):
         raise ParameterError(f"{what} = {value!r:.60} is not an array of numbers") from None
     if arr.size != int(np.prod(shape)) or not np.isfinite(arr).all():

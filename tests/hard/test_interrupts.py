@@ -156,10 +156,7 @@ except KeyboardInterrupt as exc:
     assert report["handler_restored"]
 
 
-def test_a_sweep_in_worker_processes_keeps_its_finished_rows():
-    # four short cases (c = 100: 0.05 s each), then four that take minutes (c = 1e8 at rtol 1e-12) on two
-    # spawned workers; signalled once the short ones are done
-    report = interrupted_child("""
+SWEEP_IN_WORKERS = """
 import multiprocessing
 from models import oscillator
 if __name__ == "__main__":
@@ -174,29 +171,18 @@ if __name__ == "__main__":
         rows = exc.result.rows()
         report(kind=type(exc).__name__, cases=[r["case"] for r in rows], status=[r["status"] for r in rows],
                workers_left=workers_alive())
-""", delay=5.0)
+"""
+
+
+def test_a_sweep_in_worker_processes_keeps_its_finished_rows():
+    # four short cases (c = 100: 0.05 s each), then four that take minutes (c = 1e8 at rtol 1e-12) on two
+    # spawned workers; signalled once the short ones are done
+    report = interrupted_child(SWEEP_IN_WORKERS, delay=5.0)
     assert report.get("kind") == "Interrupted", report
     assert report["latency"] < LATENCY
     assert report["cases"] == [0, 1, 2, 3] and report["status"] == ["ok"] * 4
     assert report["workers_left"] == 0
     assert report["handler_restored"]
-
-
-SWEEP_IN_WORKERS = """
-import multiprocessing
-from models import oscillator
-if __name__ == "__main__":
-    cm = oscillator(c=mn.tunable(100.0)).compile()
-    long = {"rtol": 1e-12, "atol": 1e-14, "max_steps": 10**9}
-    cases = [{"params": {"spring.c": 100.0}}] * 4 + [{"params": {"spring.c": 1e8}, "settings": long}] * 4
-    ready()
-    try:
-        mn.sweep(cm, t_end=20.0, cases=cases, workers=2, outputs=["j1.phi"], progress=False)
-        report(finished=True)
-    except KeyboardInterrupt as exc:
-        rows = exc.result.rows()
-        report(kind=type(exc).__name__, cases=[r["case"] for r in rows], workers_left=workers_alive())
-"""
 
 
 @pytest.mark.parametrize("delay", (0.3, 5.0), ids=("while-the-workers-start", "while-they-run"))

@@ -18,8 +18,8 @@ from typing import Optional
 import casadi as ca
 import numpy as np
 
-from .declarations import (Across, all_tunable, Declaration, finite_number, Flag, Input, Mode, not_a_number, Param,
-                           Port, Through, Tunable, Variable)
+from .declarations import (Across, all_tunable, Declaration, finite_number, Flag, Input, Mode,
+                           number_array, Param, Port, Through, Tunable, Variable)
 from .equation import Eq, register, time
 from .errors import ConnectError, ParameterError, StructureError
 from .requirements import check_component
@@ -204,9 +204,7 @@ class Component:
         if value is None:
             return None
         try:
-            if not_a_number(value) or any(not_a_number(v) for v in np.ravel(np.array(value, dtype=object))):
-                raise TypeError                       # True as 1.0, '0.5' as 0.5: not what a user meant
-            arr = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
+            arr = np.atleast_1d(number_array(value)).ravel()   # True as 1.0, '0.5' as 0.5: not what a user meant
         except (TypeError, ValueError):
             raise ParameterError(f"{label}: {key}_{what} = {value!r} is not a number") from None
         if arr.size == 1 and shape > 1:

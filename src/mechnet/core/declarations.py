@@ -26,6 +26,15 @@ def not_a_number(value) -> bool:
     return isinstance(value, (str, bytes, bool, np.bool_, complex, np.complexfloating))
 
 
+def number_array(value) -> np.ndarray:
+    """`value` (a number or a nested sequence of them) as a float array; TypeError or ValueError where an
+    entry is no number a user meant as one (`not_a_number`) or numpy cannot read it. One rule for every
+    array argument: its callers name the argument in their own error."""
+    if not_a_number(value) or any(not_a_number(v) for v in np.ravel(np.array(value, dtype=object))):
+        raise TypeError(f"{value!r:.60} holds something that is not a number")
+    return np.asarray(value, dtype=float)
+
+
 def finite_number(value, what: str, error=ParameterError) -> float:
     """`value` as a finite float, or `error` saying "<what> = <value> is not a number / not finite"."""
     if not_a_number(value):
@@ -189,9 +198,7 @@ class Param(Declaration):
             raise ParameterError(f"{what}: only scalar parameters can be tunable")
         shape = (self.shape, 1) if isinstance(self.shape, int) else tuple(self.shape)
         try:
-            if not_a_number(value) or any(not_a_number(v) for v in np.ravel(np.array(value, dtype=object))):
-                raise TypeError                       # '123' would become 123.0, (True, 0, 0) a vector
-            arr = np.array(value, dtype=float)
+            arr = np.array(number_array(value))           # '123' would become 123.0, (True, 0, 0) a vector
         except (TypeError, ValueError):
             raise ParameterError(f"{what} = {value!r} is not a {_shape_text(shape)} of numbers "
                                  f"({self.doc}, unit {self.unit})") from None

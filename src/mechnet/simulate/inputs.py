@@ -17,7 +17,7 @@ import casadi as ca
 import numpy as np
 
 from ..components.signals import Signal, Table, table_knots
-from ..core.declarations import finite_number, not_a_number
+from ..core.declarations import finite_number, not_a_number, number_array
 from ..core.errors import InputError
 from .result import unknown_name
 
@@ -174,13 +174,9 @@ def _table(name, value):
 
 def _table_arrays(name, value):
     if isinstance(value, tuple) and len(value) == 2:
-        if any(not_a_number(v) for part in value for v in np.ravel(np.array(part, dtype=object))):
-            raise TypeError
-        times, values = (np.asarray(v, dtype=float).ravel() for v in value)
+        times, values = (number_array(v).ravel() for v in value)
     else:
-        if any(not_a_number(v) for v in np.ravel(np.array(value, dtype=object))):
-            raise TypeError
-        arr = np.asarray(value, dtype=float)
+        arr = number_array(value)
         if arr.ndim != 2 or arr.shape[1] != 2:
             raise InputError(f"input {name!r}: give a number, a callable f(t), a (times, values) pair or an "
                              f"N×2 array of [time, value] rows (got shape {arr.shape})")

@@ -13,7 +13,7 @@ import numpy as np
 from ..caches import BUILD_LOCK
 from ..core.errors import InitializationError, IntegrationError, MechnetError, ParameterError, UnknownNameError
 from ..core.arguments import flag, mapping, whole_number
-from ..core.declarations import finite_number, not_a_number
+from ..core.declarations import finite_number, number_array
 from ..core.requirements import check_values
 from ..interrupts import Interrupted, interrupted, watched
 from ..solver_output import captured
@@ -93,9 +93,7 @@ def simulate(cm, t_end: float, *, t_start: float | None = None, rtol: float = 1e
         if n_out is not None:
             raise MechnetError("give either n_out or t_out, not both")
         try:
-            if not_a_number(t_out) or any(not_a_number(v) for v in np.ravel(np.array(t_out, dtype=object))):
-                raise TypeError
-            grid = np.asarray(t_out, dtype=float)
+            grid = number_array(t_out)
         except (TypeError, ValueError):
             raise MechnetError(f"t_out = {t_out!r:.60} must be an increasing sequence of times (s)") from None
         if grid.ndim != 1 or grid.size < 2 or np.any(np.diff(grid) <= 0) or not np.all(np.isfinite(grid)):
