@@ -12,6 +12,7 @@ import pytest
 import mechnet as mn
 from mechnet.components import translational as tr
 from mechnet.export import compiler
+from mechnet.core.events import crossed_ago
 
 fmpy = pytest.importorskip("fmpy")
 pytestmark = pytest.mark.skipif(compiler() is None, reason="no C compiler to build the FMU")
@@ -155,7 +156,10 @@ def test_a_ball_resting_on_the_floor_is_held_at_once(exported, fmi):
 def test_a_crossing_an_importer_stepped_over_asks_for_event_mode(exported, fmi):
     """Falling at 1 m/s from 1 cm (s = 0.01 − t − g·t²/2), an importer's 1 ms steps land at s = −0.49 mm at
     t = 10 ms without locating the impact: the completed step asks for event mode, and the update bounces
-    the ball (v → −e·v; an impact losing 0.22 m/s, far more than a 1 ms step's error adds back: no rest)."""
+    the ball where it crossed (core/events.py `crossed_ago`: s/v = 0.45 ms before the step's end, the state
+    carried back along its derivatives, v → −e·v there, carried on to 10 ms: above the floor again; an impact
+    losing 0.22 m/s, far more than a 1 ms step's error adds back: no rest). Exact to rel 1e-12: the same
+    arithmetic, one Euler step each way."""
     cm, path = exported(0.01, -1.0, fmi)
     run = Driven(path, fmi)
 
@@ -165,7 +169,14 @@ def test_a_crossing_an_importer_stepped_over_asks_for_event_mode(exported, fmi):
         assert not run.step_to(0.009, *free(0.009))      # still above the floor
         assert run.step_to(0.010, *free(0.010))          # past it: an event it must not lose
         assert run.event() >= 1
-        assert run.get("ball.v") == pytest.approx(-E * free(0.010)[1], rel=1e-12)
+        s_end, v_end = free(0.010)
+        ago = crossed_ago(s_end, v_end, 1e-3)
+        assert 0 < ago < 1e-3
+        s_at, v_at = s_end - v_end * ago, v_end + G * ago        # carried back along (v, −g)
+        v_plus = -E * v_at
+        assert run.get("ball.v") == pytest.approx(v_plus - G * ago, rel=1e-12)
+        assert run.get("ball.s") == pytest.approx(s_at + v_plus * ago, rel=1e-12)
+        assert run.get("ball.s") > 0                              # back above the floor
         assert run.get("contact.mode") == 0.0
     finally:
         run.close()

@@ -110,6 +110,16 @@ def test_a_rebound_euler_cannot_let_decay_rests():
     assert not ev.rests_under_fixed_steps(-0.198, 0.198, -9.81, 1e-3)     # e = 1: nothing lost, never rests
 
 
+def test_where_a_stepped_over_crossing_happened():
+    """A ball found 0.49 mm below the floor at 1.098 m/s at the end of a 1 ms fixed step crossed s/v = 0.446 ms
+    before it; never more than the step (found far past it, as after a long step); and a condition moving
+    back towards its boundary (s < 0, v > 0) or not moving was not carried across by its rate: 0."""
+    assert ev.crossed_ago(-0.49e-3, -1.098, 1e-3) == pytest.approx(0.49e-3 / 1.098, rel=1e-15)
+    assert ev.crossed_ago(-0.5, -1.0, 1e-3) == 1e-3
+    assert ev.crossed_ago(-0.49e-3, 1.0, 1e-3) == 0.0 and ev.crossed_ago(-0.49e-3, 0.0, 1e-3) == 0.0
+    assert ev.crossed_ago(1.2e-3, 1.47, 1e-3) == pytest.approx(1.2e-3 / 1.47, rel=1e-15)   # rising: friction
+
+
 def test_the_fmu_wrapper_keeps_the_rules_constants():
     """The C wrapper states the rules' constants again (it has no Python): they are the same numbers."""
     import re
@@ -124,3 +134,4 @@ def test_the_fmu_wrapper_keeps_the_rules_constants():
     assert define("MN_FIXED_STEP_FLIGHT") == ev.FIXED_STEP_FLIGHT
     assert f"fabs(r2 - r1) <= {ev.GEOMETRIC_SPREAD} * r" in source
     assert "1e-12 * (fabs(t) > 1 ? fabs(t) : 1)" in source and ev.location_tolerance(0.5) == 1e-12
+    assert "if (gd != 0 && sign_of(g) == sign_of(gd)) ago = fmin(g / gd, m->h_step);" in source   # crossed_ago

@@ -19,8 +19,9 @@ A condition g of a `When` is *armed* with a side, +1 or −1 (0: resting on its 
   reset leaves on its boundary held there by g̈ alone (ġ = 0, g̈ pushing it across) crosses again at the
   same instant (`fires_again`): repeated from the same state, that is an accumulation, and the condition's
   rest transition ends it (a ball at rest).
-- **Under fixed steps** (an FMU importer that sees events only at its steps' ends), a rebound whose
-  impact takes less speed than the step's error adds back rests (`rests_under_fixed_steps`).
+- **Under fixed steps** (an FMU importer that sees events only at its steps' ends), the transition applies
+  where the condition crossed within the step (`crossed_ago`), and a rebound whose impact takes less speed
+  than the step's error adds back rests (`rests_under_fixed_steps`).
 - **Accumulation**: the events of one condition whose last three gaps shrink by a consistent ratio
   r < 1 accumulate at T∞ = t + gap·r/(1 − r) (`accumulation_time`); when what remains is shorter than
   what the integration can resolve, the rest transition ends them (`rests`).
@@ -122,6 +123,17 @@ def rests_under_fixed_steps(gd_before: float, gd_after: float, gdd: float, h: fl
     loss = abs(gd_before) - abs(gd_after)
     return (1e-12 * abs(gd_before) < loss <= FIXED_STEP_GAIN * abs(gdd) * h
             and flight_time(gd_after, gdd) <= FIXED_STEP_FLIGHT * h)
+
+
+def crossed_ago(g: float, gd: float, h: float) -> float:
+    """How long before the end of a fixed step h a condition found there past its boundary (g, moving on at
+    ġ) crossed it: g/ġ, linear interpolation, at most h; 0 when ġ does not carry it that way. An FMU whose
+    importer steps over a crossing applies the transition there (on the state carried back along its
+    derivatives) and carries the result on to the step's end: read at the step's end, friction sliding
+    through v = 0 is up to |a|·h past it, far above v_small, and counts as thrown across instead of sticking."""
+    if gd == 0 or _sign(g) != _sign(gd):
+        return 0.0
+    return min(g / gd, h)
 
 
 def _sign(v: float) -> int:
