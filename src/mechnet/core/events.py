@@ -24,7 +24,8 @@ A condition g of a `When` is *armed* with a side, +1 or −1 (0: resting on its 
   than the step's error adds back rests (`rests_under_fixed_steps`).
 - **Accumulation**: the events of one condition whose last three gaps shrink by a consistent ratio
   r < 1 accumulate at T∞ = t + gap·r/(1 − r) (`accumulation_time`); when what remains is shorter than
-  what the integration can resolve, the rest transition ends them (`rests`).
+  what the integration can resolve, the rest transition ends them (`rests`), and the simulator stamps the
+  rest at T∞ as its best-resolved events predict it (`best_accumulation_time`).
 """
 from __future__ import annotations
 
@@ -92,6 +93,26 @@ def accumulation_time(times) -> float | None:
     if not (r < 1 and abs(r2 - r1) <= GEOMETRIC_SPREAD * r):
         return None
     return times[-1] + gaps[-1] * r / (1 - r)
+
+
+def best_accumulation_time(times) -> float | None:
+    """T∞ of a series of events, predicted from its window of four consecutive events whose two gap ratios
+    agree best (`accumulation_time` of each), and never before its last event; None when no window is
+    geometric. The last events of a series are the worst resolved: at rtol 1e-8 a ball's 50th impact is
+    1.7e-5 s off its series and the last window's ratio reads 0.745 for 0.8, putting T∞ 3.5e-5 s early,
+    where its 15th predicts it to 1e-7 s."""
+    times = list(times)
+    best, spread = None, math.inf
+    for k in range(len(times) - 3):
+        window = times[k: k + 4]
+        t_inf = accumulation_time(window)
+        if t_inf is None or t_inf < times[-1]:
+            continue
+        gaps = [b - a for a, b in zip(window, window[1:])]
+        r1, r2 = gaps[1] / gaps[0], gaps[2] / gaps[1]
+        if abs(r2 - r1) / r2 < spread:
+            best, spread = t_inf, abs(r2 - r1) / r2
+    return best
 
 
 def rests(times, resolution: float) -> bool:

@@ -177,6 +177,8 @@ class MonitoredPieces:
                 self._check_accumulation()
                 if self.failure is not None:
                     return
+                if self._resting is not None:
+                    t_cur = self._rest_at_accumulation(t_cur, grid, event_at)
                 per_piece = 1
                 # the next piece reaches twice as far as the last gap between state events (not to the end
                 # of a long output interval, integrated again after every event), growing while quiet

@@ -86,7 +86,7 @@ import numpy as np
 
 from ..caches import built
 from ..core.errors import IntegrationError
-from ..core.events import accumulation_time, location_tolerance
+from ..core.events import accumulation_time, best_accumulation_time, location_tolerance
 from ..numeric import NumpyCall, mapped_in
 from .events import Event
 from .initialize import solve_algebraic
@@ -315,6 +315,7 @@ class StateEvents:
     _armed_at = None         # the time they were set at
     _pending = None          # the bracket found by _first_crossing, for _handle_event
     _resolution = ()         # (t, time resolution of each function's event there): `_time_resolution`
+    _resting = None          # (T∞, cause) of a rest its events predicted beyond the last located one
 
     def _rates(self, t, x, z, left=False):
         """g, ġ, g̈ at (t, x, z), exactly 0 where a function rests on its boundary within round-off
@@ -698,9 +699,10 @@ class StateEvents:
         settle = candidates & (np.abs(g) <= self._resolved(t, self.x, self.z)) & (moving == before)
         return np.where(settle, before, sides)
 
-    def _accumulation(self, t, i, why):
+    def _accumulation(self, t, i, why, t_inf=None):
         """Events of condition i accumulate at t: end them through its rest transition (a plastic jump
-        and the rest modes: a ball comes to rest and the run goes on), or stop the run."""
+        and the rest modes: a ball comes to rest and the run goes on), or stop the run. `t_inf`: the
+        accumulation time its events predict; the rest event is stamped there (`_rest_at_accumulation`)."""
         label = self.dae.zero_labels[i]
         rests = self.dae.info.get("rest_transition", ())
         if i < len(rests) and rests[i] is not None:
@@ -709,9 +711,12 @@ class StateEvents:
             self.x, self.d = np.asarray(x_plus, dtype=float).ravel(), np.asarray(d_plus, dtype=float).ravel()
             self.z = solve_algebraic(self.dae, t, self.x, self.z, u_t, self.p, self.d)
             self._record_right_limit(t, True)
-            self.events.append(Event(float(t), "rest", f"{label} — {why}"))
             self._armed, _, _ = self._sides(t, self._rates(t, self.x, self.z))
             self._armed_at = t
+            if t_inf is not None and t_inf > t:
+                self._resting = (t_inf, f"{label} — {why}")
+            else:
+                self.events.append(Event(float(t), "rest", f"{label} — {why}"))
             return
         times = [e.t for e in self.events if e.kind == "state" and e.cause == label][-4:]
         self.failure = IntegrationError(
@@ -781,5 +786,40 @@ class StateEvents:
                 else self._tol_t(t)
             if remaining <= ACCUMULATION_RESOLUTION * resolution:
                 self._accumulation(t, label, f"its events come ever closer (gaps shrinking by {r:.3g}), "
-                                             f"accumulating {remaining:.3g} s later, within what the "
-                                             f"integration resolves of their times ({resolution:.3g} s)")
+                                             f"accumulating at {t_inf:.9g} s, {remaining:.3g} s after the last "
+                                             f"located one, within what the integration resolves of "
+                                             f"their times ({resolution:.3g} s)",
+                                   t_inf=best_accumulation_time(self._series(cause, times)) or t_inf)
+
+    def _series(self, cause, times):
+        """The times of the events of `cause` since it last came to rest (the series now accumulating)."""
+        rests = [e.t for e in self.events if e.kind == "rest" and e.cause.startswith(f"{cause} — ")]
+        return [v for v in times if not rests or v > rests[-1]]
+
+    def _rest_at_accumulation(self, t, grid, event_at):
+        """Where the run goes on after a rest its events predicted at T∞ (`_accumulation`): the rest modes
+        hold from t, the last located event (what is left of the series rises less than the bounce after it,
+        v²/2|g̈|, below what the integration resolves), and the rest event is stamped at T∞, where the
+        bouncing ends: located impacts stop ~4.6e-5 s short of it at rtol 1e-8, and T∞ = t + gap·r/(1 − r)
+        is where the series lands. The run is carried to T∞ in the rest modes (and through the output times
+        before it) and goes on from there; with a time event or the run's end in (t, T∞] the rest stays at t.
+        Returns the time the run goes on from."""
+        t_inf, cause = self._resting
+        self._resting = None
+        inside = [float(g) for g in grid if t < g < t_inf]
+        if t_inf >= grid[-1] or any(t < te <= t_inf for te in event_at):
+            self.events.append(Event(float(t), "rest", cause))
+            return t
+        x0, z0 = self.x.copy(), self.z.copy()
+        try:
+            states = [self._advance_to(t, x0, z0, g) for g in (*inside, t_inf)]
+        except EventSearchFailed:
+            self.events.append(Event(float(t), "rest", cause))
+            return t
+        for g, (x, z) in zip((*inside, t_inf), states):
+            self.x, self.z = x, z
+            self._record(g)
+        self.events.append(Event(float(t_inf), "rest", cause))
+        self._armed, _, _ = self._sides(t_inf, self._rates(t_inf, self.x, self.z))
+        self._armed_at = t_inf
+        return t_inf
