@@ -421,3 +421,59 @@ def stopped_oscillator(e=0.7, limit=0.05, name="stopped_oscillator") -> mn.Model
     m.connect(wall.flange, stop.flange_a)
     m.connect(stop.flange_b, mass.flange_b)
     return m
+
+
+def pushed_block(push=0.5 * 9.81, ramp=None, v0=0.0, fn=9.81, mu_k=0.25, mu_s=0.5, stop=None, e=0.8,
+                 name="pushed_block") -> mn.Model:
+    """A 1 kg block ("block") on a fixed surface with friction ("fr", normal force fn), at s = 0 with speed
+    v0, pushed by the force "push" (the constant `push`, or the signal `ramp`: a rising push breaks it away
+    mid-run). With the defaults the static limit (μs − μk)·fn + μk·fn is exactly 0.5·9.81 in floating point
+    (0.25·9.81 twice). `stop`: a HardStop ("stop", restitution e) limiting the block to s ≤ stop."""
+    from mechnet.components import translational as tr
+    m = mn.Model(name)
+    block = m.add(tr.Mass(name="block", m=1.0, s_start=0.0, v_start=v0))
+    ground = m.add(tr.Fixed(name="ground"))
+    fr = m.add(tr.Friction(name="fr", fn=fn, mu_k=mu_k, mu_s=mu_s))
+    m.connect(ground.flange, fr.flange_a)
+    m.connect(fr.flange_b, block.flange_a)
+    if ramp is not None or push:
+        force = m.add(tr.Force(name="push", f=ramp) if ramp is not None else tr.ConstantForce(name="push",
+                                                                                           f_constant=push))
+        m.connect(force.flange, block.flange_b)
+    if stop is not None:
+        hs = m.add(tr.HardStop(name="stop", s_min=-10.0, s_max=stop, e=e))
+        m.connect(ground.flange, hs.flange_a)
+        m.connect(hs.flange_b, block.flange_b)
+    return m
+
+
+def two_balls(s0=0.5, v0=0.0, e=0.8, mass=0.1, g=9.81, name="two_balls") -> mn.Model:
+    """Two independent balls ("ball1", "ball2": `mass` kg each, both from height s0 with speed v0) above one
+    rigid floor, each on its own Contact ("contact1", "contact2", restitution e) under gravity g: they land
+    at the same instant."""
+    from mechnet.components import translational as tr
+    m = mn.Model(name)
+    floor = m.add(tr.Fixed(name="floor"))
+    for k in (1, 2):
+        contact = m.add(tr.Contact(name=f"contact{k}", e=e))
+        body = m.add(tr.Mass(name=f"ball{k}", m=mass, s_start=s0, v_start=v0))
+        gravity = m.add(tr.ConstantForce(name=f"gravity{k}", f_constant=-mass * g))
+        m.connect(floor.flange, contact.flange_a)
+        m.connect(contact.flange_b, body.flange_a)
+        m.connect(gravity.flange, body.flange_b)
+    return m
+
+
+def mass_line(n=3, v0=1.0, gap=0.1, e=1.0, mass=1.0, name="mass_line") -> mn.Model:
+    """A translational Newton's cradle: n equal masses ("m0" … "m{n-1}") on a frictionless line, joined in
+    order by rigid Contacts ("hit0" …: m{i+1} never behind m{i}, restitution e). m0 starts `gap` behind m1
+    with speed v0; the others rest touching (all at s = 0)."""
+    from mechnet.components import translational as tr
+    m = mn.Model(name)
+    masses = [m.add(tr.Mass(name=f"m{i}", m=mass, s_start=-gap if i == 0 else 0.0, v_start=v0 if i == 0 else 0.0))
+              for i in range(n)]
+    for i in range(n - 1):
+        hit = m.add(tr.Contact(name=f"hit{i}", e=e))
+        m.connect(masses[i].flange_b, hit.flange_a)
+        m.connect(hit.flange_b, masses[i + 1].flange_a)
+    return m
