@@ -648,14 +648,13 @@ def test_newtons_cradle_of_touching_pendulums_swings_back_and_forth(tolerances):
         assert energy[after] == pytest.approx(energy[before], rel=1e-12)
 
 
-@pytest.mark.xfail(strict=True, reason="issue 33: at rtol 1e-10 the ball a return cascade stops is left "
-                   "2e-13 rad inside its neighbour by the event location's error; its contact fires again "
-                   "1e-12 s later and rests by accumulation (hit3 at 1.513 s, hit0 at 2.522 s), and hit2 "
-                   "fires once at 3.023 s: 17 events where the 12 of the three cascades are physical")
 def test_newtons_cradle_of_touching_pendulums_makes_only_its_cascades_events():
     """The same run at rtol 1e-10, atol 1e-12: exactly the 12 events of the three cascades (the defaults
-    give them). A band kept after each event that hid this also hid real impacts (a ball sinking 0.22 m
-    through its floor at t = 1e5 s: tests/hard/test_event_detection.py) and was taken out."""
+    give them). The ball a return cascade stops is left 2e-13 rad inside its neighbour by the event
+    location's error; taken as a crossing, its contact fired again 1e-12 s later and rested by accumulation
+    (17 events). That value is now the contact's boundary until it fires again
+    (`StateEvents._keep_location_error`). A band kept after each event had hidden this and real impacts with
+    it (a ball sinking 0.22 m through its floor at t = 1e5 s: tests/hard/test_event_detection.py)."""
     res, _, _ = _three_cascades(dict(rtol=RTOL, atol=ATOL))
     assert len(res.events) == 12 and all(e.kind == "state" for e in res.events)
 
