@@ -160,6 +160,7 @@ def _impact_rows(r):
 def test_ball_under_cvode(fmus, tmp_path, importer, fmi, setting, v_rest):
     """Ball (e = 0.8 from 1 m, g = 9.81), 6 s, CVode at rtol and output interval of `setting`, atol = rtol:
     never below −10·(rtol·1 m + atol); 10 impacts (velocity − → + across an event's rows) at least, each
+    rebound e times its impact's speed (rel 1e-9: the reset is exact arithmetic on the located state) and
     within 10·rtol·t_k of where its flight puts it: the first at √(2h/g), each next one 2·v⁺/g after the
     rebound v⁺ the FMU left (the event located and the reset applied: what the FMU does); at rest
     (|s| ≤ 10·(rtol·1 m + atol), |v| ≤ 10·(rtol·v_1 + atol)) from T∞ + 0.1 s on.
@@ -184,6 +185,9 @@ def test_ball_under_cvode(fmus, tmp_path, importer, fmi, setting, v_rest):
                         f"{first_disagreement(series, measured, 0.0)}")
     else:
         rebound = r["ball.v"][rows + 1]
+        restitution = -rebound / r["ball.v"][rows]
+        if np.max(np.abs(restitution - BALL.E)) > 1e-9 * BALL.E:
+            problems.append(f"rebound speeds {restitution} times the impact's, e = {BALL.E} expected (rel 1e-9)")
         predicted = np.r_[series[0], measured[:-1] + 2 * rebound[:-1] / BALL.G]
         off = np.abs(measured - predicted) - 10 * setting.rtol * measured
         if np.any(off > 0):
@@ -196,7 +200,8 @@ def test_ball_under_cvode(fmus, tmp_path, importer, fmi, setting, v_rest):
     v_bound = 10 * (setting.rtol * v1 + setting.atol)
     if s_max > bound or v_max > v_bound:
         problems.append(f"not at rest after T∞ + 0.1 = {t_inf + 0.1:.4g} s: max |s| = {s_max:.3g} m (bound "
-                        f"{bound:.3g}), max |v| = {v_max:.3g} m/s (bound {v_bound:.3g}); s(6) = {r['ball.s'][-1]:.4g} m")
+                        f"{bound:.3g}), max |v| = {v_max:.3g} m/s (bound {v_bound:.3g}); "
+                        f"s(6) = {r['ball.s'][-1]:.4g} m")
     assert not problems, f"{r.label}, FMI {fmi}, v_rest {v_rest}: " + "; ".join(problems)
 
 
@@ -331,8 +336,9 @@ def test_native_and_fmu_event_times_agree(fmus, tmp_path, name, importer, fmi):
     jumping = [n for n in NAMES[name] if n.endswith((".v", ".w", ".mode"))]
     measured = r.transitions(jumping)
     both = np.array(expected[:len(measured)])
-    bad = first_disagreement(both, measured, np.inf)        # the same number of events, in order
-    assert bad is None, f"{name}, {r.label}, FMI {fmi}: {bad}; {len(expected)} native events"
+    # no more FMU events than native ones (fewer where the FMU rests sooner: checked below)
+    assert 0 < len(measured) <= len(expected), f"{name}, {r.label}, FMI {fmi}: {len(measured)} FMU events, " \
+                                               f"{len(expected)} native"
     speeds = [n for n in NAMES[name] if n.endswith((".v", ".w"))]
     speed = np.array([max(abs(r[n][np.flatnonzero(r.t == t)[0]]) for n in speeds) for t in measured])
     with np.errstate(divide="ignore"):
@@ -385,9 +391,11 @@ def test_four_bar_stop_at_common_settings(fmus, tmp_path, importer, fmi, setting
     phi, w = r["crank_joint.phi"], r["crank_joint.w"]
     problems = []
     if phi.min() < -bound:
-        problems.append(f"crank {phi.min():.4g} rad past the stop at {r.t[np.argmin(phi)]:.5g} s (bound −{bound:.3g})")
+        problems.append(f"crank {phi.min():.4g} rad past the stop at {r.t[np.argmin(phi)]:.5g} s "
+                        f"(bound −{bound:.3g})")
     if gain > e_bound:
-        problems.append(f"energy gained {gain:.3g} J at {r.t[np.argmax(energy - energy[0])]:.5g} s (bound {e_bound:.3g})")
+        problems.append(f"energy gained {gain:.3g} J at {r.t[np.argmax(energy - energy[0])]:.5g} s "
+                        f"(bound {e_bound:.3g})")
     if abs(phi[-1]) > bound or abs(w[-1]) > bound:
         problems.append(f"not resting at 3 s: φ = {phi[-1]:.3g} rad, ω = {w[-1]:.3g} rad/s (bound {bound:.3g})")
     assert not problems, f"{r.label}, FMI {fmi}: " + "; ".join(problems)

@@ -234,6 +234,8 @@ SCENES = {
     "thrown": lambda: pushed_block(push=0.0, v0=1.0, stop=STOP, e=E_STOP),
     "balls": lambda: two_balls(s0=0.5, v0=0.0, e=E),
     "line": lambda: mass_line(n=3, v0=1.0, gap=0.1, e=1.0),
+    "elastic": lambda: two_balls(s0=2e-3, v0=0.0, e=1.0, name="elastic_balls"),
+    "balls_euler": lambda: two_balls(s0=0.05, v0=0.0, e=E, name="balls_euler"),
 }
 
 
@@ -458,3 +460,40 @@ def test_a_line_of_three_masses_hands_its_momentum_down_in_one_instant(scene, fm
     _, after = fmu_instant(out, times[0])
     for name, v in expected.items():
         assert out[name][after] == pytest.approx(v, abs=1e-9) and out[name][-1] == pytest.approx(v, abs=1e-9)
+
+
+@pytest.mark.parametrize("fmi", (2, 3))
+def test_an_elastic_ball_keeps_bouncing_under_fixed_steps(scene, fmi):
+    """two_balls with e = 1 dropped from 2 mm (flight 40 ms, 40 steps of 1 ms), 1 s, FMPy Euler at h = 1 ms:
+    an impact that keeps its speed never rests, however short the flight (core/events.py
+    `rests_under_fixed_steps`). The event is taken where the ball crossed (`crossed_ago`) and the speeds the
+    rest rule compares are read there, before and after the reset: read at the step's end after carrying
+    back and forth, they differed by 2·g·ago and the ball was put to rest at its first impact. Asserted: the
+    simulator (rtol 1e-6) bounces at least 20 times in 1 s (measured 25) and never rests; under Euler at
+    least 15 impacts (measured 17: explicit Euler gains energy, its flights lengthen from 45 to 74 steps),
+    the contact never in its rest mode (−1), and the ball still rising above 1 mm in the last 0.1 s."""
+    cm, path = scene("elastic", fmi)
+    native = cm.simulate(1.0, n_out=101)
+    hits = [e for e in native.events if e.kind == "state" and e.cause.startswith("contact1")]
+    assert len(hits) >= 20 and not any(e.kind == "rest" for e in native.events)
+    run = fmpy_run(path, 1.0, ["ball1.s", "ball1.v", "contact1.mode"], EULER)
+    rebounds = np.flatnonzero((run["ball1.v"][:-1] < 0) & (run["ball1.v"][1:] > 0))
+    assert len(rebounds) >= 15, f"{len(rebounds)} impacts under Euler, the simulator {len(hits)}"
+    assert np.all(run["contact1.mode"] != -1.0)
+    assert np.max(run["ball1.s"][run.t >= 0.9]) >= 1e-3
+
+
+@pytest.mark.parametrize("fmi", (2, 3))
+def test_two_balls_stepped_over_together_stay_together(scene, fmi):
+    """two_balls (e = 0.8, identical, from 5 cm), 1 s, FMPy Euler at h = 1 ms: both crossings fall in the same
+    steps, so both events are taken at the one instant where the first crossed (every state carried back
+    there, `crossed_ago`): the two balls stay identical to the bit. Taken only for the first, the second ball's
+    transition at the step's end separated them by 1.9 mm. Also the first impact against the closed form
+    t = √(2·0.05/g) = 0.101 s: seen at most two steps after it (one for seeing it at a step's end, one for
+    explicit Euler's lag: its fall trails the exact one by about g·h·t/2, measured 0.102 s)."""
+    _, path = scene("balls_euler", fmi)
+    run = fmpy_run(path, 1.0, ["ball1.s", "ball2.s", "ball1.v", "ball2.v"], EULER)
+    assert np.array_equal(run["ball1.s"], run["ball2.s"]) and np.array_equal(run["ball1.v"], run["ball2.v"])
+    first = run.t[np.flatnonzero((run["ball1.v"][:-1] < 0) & (run["ball1.v"][1:] > 0))[0] + 1]
+    t_hit = np.sqrt(2 * 0.05 / G)
+    assert t_hit <= first <= t_hit + 2 * EULER.interval

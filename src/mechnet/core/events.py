@@ -149,9 +149,10 @@ def rests_under_fixed_steps(gd_before: float, gd_after: float, gdd: float, h: fl
 def crossed_ago(g: float, gd: float, h: float) -> float:
     """How long before the end of a fixed step h a condition found there past its boundary (g, moving on at
     ġ) crossed it: g/ġ, linear interpolation, at most h; 0 when ġ does not carry it that way. An FMU whose
-    importer steps over a crossing applies the transition there (on the state carried back along its
-    derivatives) and carries the result on to the step's end: read at the step's end, friction sliding
-    through v = 0 is up to |a|·h past it, far above v_small, and counts as thrown across instead of sticking."""
+    importer steps over a crossing takes the event there (every state carried back along its derivatives,
+    the event iteration run at that instant) and carries the result on to the step's end: read at the
+    step's end, friction sliding through v = 0 is up to |a|·h past it, far above v_small, and counts as
+    thrown across instead of sticking."""
     if gd == 0 or _sign(g) != _sign(gd):
         return 0.0
     return min(g / gd, h)

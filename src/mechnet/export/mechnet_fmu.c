@@ -68,6 +68,7 @@ typedef struct {
     int n_event_times[MN_NG + 1];
     double t_step, h_step;                      /* the last completed integrator step: its end and length */
     int stepped_over;                           /* this event was seen at a step's end, not located: fixed steps */
+    double carried_back;                        /* s: this event is taken that long before the importer's time */
     int need_z, need_xdot, need_y, need_g, need_rates, need_init;
     int branch_sign;                /* sign of det(d alg / d z) on the assembly branch of the start */
     int mem[N_CALLED + 1];
@@ -377,29 +378,44 @@ static int transition(Instance *m, int k) {
     return ST_OK;
 }
 
-/* An importer that steps over condition k's crossing (fixed steps: it sees it at a step's end, up to
- * |dg/dt|·h past its boundary) gets the transition where the condition crossed: g/(dg/dt) before the step's
- * end (linear interpolation, at most the step), on the state carried back there along its derivatives, and
- * the result carried on to the step's end along the derivatives after it (one Euler step each way: the
- * importer's own order). Applied at the step's end instead, friction sliding through v = 0 at 1.5 m/s^2
- * read 1.5e-3 m/s there under a 1 ms Euler step, far above v_small: "thrown" across, it slid back and forth,
- * 123 switches in 10 s where the closed form has 11. (mechnet/core/events.py: `crossed_ago`.) */
-static int transition_where_crossed(Instance *m, int k) {
-    double g = m->rates[k], gd = m->rates[MN_NG + k], ago = 0, t_end = m->t;
+/* An importer that steps over a crossing (fixed steps: it sees it at a step's end, up to |dg/dt|·h past its
+ * boundary) gets the event where the condition crossed: g/(dg/dt) before the step's end (linear
+ * interpolation, at most the step; mechnet/core/events.py `crossed_ago`), for the first condition found
+ * crossed off its boundary. Every state is carried back there along its derivatives, and the whole event
+ * iteration runs at that instant: the transitions of that condition and of any other crossing with it (two
+ * balls landing together keep landing together) and the rest rules, which compare speeds before and after
+ * at the same point. When a round fires nothing the result is carried on to the step's end along the
+ * derivatives after it (`carry_on`; one Euler step each way: the importer's own order). At the step's end
+ * instead, friction sliding through v = 0 at 1.5 m/s^2 read 1.5e-3 m/s under a 1 ms Euler step, far above
+ * v_small: "thrown" across, it slid back and forth, 123 switches in 10 s where the closed form has 11. Not for
+ * scenes with loops (their equations are solved at the importer's states only). */
+static int carry_back(Instance *m, int k) {
+    double g = m->rates[k], gd = m->rates[MN_NG + k], ago = 0;
     int i, st;
+    if (MN_NZ > 0 || side_of(m, k, m->near[k]).on) return ST_OK;
     if (gd != 0 && sign_of(g) == sign_of(gd)) ago = fmin(g / gd, m->h_step);
-    if (!(ago > 0)) return transition(m, k);
+    if (!(ago > 0)) return ST_OK;
     if ((st = ensure(m, &m->need_xdot, F_ODE, m->xdot)) != ST_OK) return st;
     for (i = 0; i < MN_NX; i++) m->x[i] -= m->xdot[i] * ago;
-    m->t = t_end - ago;
+    m->t -= ago;
+    m->carried_back = ago;
     changed(m);
-    if ((st = transition(m, k)) != ST_OK) return st;
+    if (m->logging) logf_(m, ST_OK, "logEvents", "t = %.17g: %s crossed %.3g s before the importer's step "
+                          "ended: its event is taken there", m->t, mn_zero_labels[k], ago);
+    return fresh_rates(m);
+}
+
+/* the states after an event taken where it crossed (`carry_back`) carried on to the importer's time */
+static int carry_on(Instance *m) {
+    double ago = m->carried_back;
+    int i, st;
+    if (!(ago > 0)) return ST_OK;
     if ((st = ensure(m, &m->need_xdot, F_ODE, m->xdot)) != ST_OK) return st;
     for (i = 0; i < MN_NX; i++) m->x[i] += m->xdot[i] * ago;
-    m->t = t_end;
+    m->t += ago;
+    m->carried_back = 0;
     changed(m);
-    if (m->logging) logf_(m, ST_OK, "logEvents", "t = %.17g: %s crossed %.3g s before the importer's step ended: "
-                          "its transition applied there", m->t, mn_zero_labels[k], ago);
+    accept(m);
     return ST_OK;
 }
 
@@ -419,6 +435,13 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
     *needs_more = 0;
     if (MN_NG == 0) return ST_OK;
     if ((st = fresh_rates(m)) != ST_OK) return st;
+    if (m->stepped_over && m->event_rounds == 0 && !(m->carried_back > 0)) {
+        for (k = 0; k < MN_NG; k++)             /* the first to fire: the event is taken where it crossed */
+            if (fires(mn_zero_direction[k], m->armed[k], side_of(m, k, m->near[k]).side)) {
+                if ((st = carry_back(m, k)) != ST_OK) return st;
+                break;
+            }
+    }
     memset(fired_here, 0, sizeof fired_here);
     for (k = 0; k < MN_NG; k++) {
         Side s = side_of(m, k, m->near[k]);
@@ -435,8 +458,7 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
             continue;
         }
         if (fired) continue;        /* crossing too: judged again after this round's reset */
-        if ((st = m->stepped_over && m->event_rounds == 0 ? transition_where_crossed(m, k)
-                                                           : transition(m, k)) != ST_OK) return st;
+        if ((st = transition(m, k)) != ST_OK) return st;
         fired_here[k] = 1;
         m->fired_now[k] = 1;
         remember_event(m, k);
@@ -446,6 +468,7 @@ static int update_discrete(Instance *m, int *values_changed, int *needs_more) {
     }
     if (!fired) {
         m->stepped_over = 0;
+        if ((st = carry_on(m)) != ST_OK) return st;
         return arm(m);
     }
     if (++m->event_rounds > MN_MAX_EVENT_ROUNDS) {
@@ -688,6 +711,7 @@ static int exit_init(Instance *m) {
     m->t_step = m->t;
     m->h_step = 0;
     m->stepped_over = 0;
+    m->carried_back = 0;
     memset(m->n_event_times, 0, sizeof m->n_event_times);
     if (MN_NG && (st = fresh_rates(m)) != ST_OK) return st;
     /* every condition on its side; one on its boundary leaving it into its direction crosses now (a ball
