@@ -477,3 +477,18 @@ def mass_line(n=3, v0=1.0, gap=0.1, e=1.0, mass=1.0, name="mass_line") -> mn.Mod
         m.connect(masses[i].flange_b, hit.flange_a)
         m.connect(hit.flange_b, masses[i + 1].flange_a)
     return m
+
+
+def revolute_pendulum(phi0=0.3, length=1.0, mass=1.0, name="pendulum") -> mn.Model:
+    """The README's multibody pendulum: a particle of `mass` kg `length` m out along x on a revolute joint
+    about z, released at phi0 rad from rest, under the World's gravity (−9.81 m/s² along y)."""
+    from mechnet.components import multibody as mb
+    m = mn.Model(name)
+    world = m.add(mb.World(name="world"))
+    rev = m.add(mb.Revolute(name="rev", n=[0, 0, 1], phi_start=phi0, w_start=0.0))
+    rod = m.add(mb.FixedTranslation(name="rod", r=[length, 0, 0]))
+    bob = m.add(mb.Particle(name="bob", m=mass))
+    m.connect(world.frame_b, rev.frame_a)
+    m.connect(rev.frame_b, rod.frame_a)
+    m.connect(rod.frame_b, bob.frame_a)
+    return m

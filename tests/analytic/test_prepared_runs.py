@@ -8,7 +8,6 @@ import pytest
 
 import mechnet as mn
 import models
-from mechnet.components import multibody as mb
 
 RTOL, ATOL = 1e-8, 1e-10
 
@@ -82,15 +81,7 @@ def test_a_pendulum_wound_many_turns_repeats_its_call_without_the_turns(full_run
     # wheel spun at 2000 rad/s winds past TURN_LIMIT (256 rad) within the 1 s run, so that call is
     # cm.simulate in full (its run loop splits it), with simulate's numbers; the next ordinary start
     # takes the fast path again.
-    m = mn.Model("pendulum")
-    world = m.add(mb.World(name="world", g=[0.0, -9.81, 0.0]))
-    rev = m.add(mb.Revolute(name="rev", n=[0, 0, 1], phi_start=0.3, w_start=0.0))
-    rod = m.add(mb.FixedTranslation(name="rod", r=[1.0, 0, 0]))
-    bob = m.add(mb.Particle(name="bob", m=1.0))
-    m.connect(world.frame_b, rev.frame_a)
-    m.connect(rev.frame_b, rod.frame_a)
-    m.connect(rod.frame_b, bob.frame_a)
-    cm = m.compile()
+    cm = models.revolute_pendulum(phi0=0.3).compile()
     run = cm.prepare(1.0, n_out=51, rtol=RTOL, atol=ATOL)
     phis = {}
     for k in (0, 10, 1000):

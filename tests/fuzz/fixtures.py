@@ -10,8 +10,7 @@ import tempfile
 import mechnet as mn
 from mechnet.components import rotational as rot
 from mechnet.components import translational as tr
-from mechnet.components import multibody as mb
-from models import oscillator
+from models import oscillator, revolute_pendulum
 
 _ROOT: list[str] = []
 
@@ -64,15 +63,7 @@ def mass():
 @functools.cache
 def pendulum():
     """The README's multibody pendulum (one revolute about z, a particle 1 m out)."""
-    m = mn.Model("pendulum")
-    world = m.add(mb.World(name="world"))
-    rev = m.add(mb.Revolute(name="rev", n=[0, 0, 1], phi_start=0.3, w_start=0.0))
-    rod = m.add(mb.FixedTranslation(name="rod", r=[1.0, 0, 0]))
-    bob = m.add(mb.Particle(name="bob", m=1.0))
-    m.connect(world.frame_b, rev.frame_a)
-    m.connect(rev.frame_b, rod.frame_a)
-    m.connect(rod.frame_b, bob.frame_a)
-    return m.compile()
+    return revolute_pendulum().compile()
 
 
 @functools.cache
